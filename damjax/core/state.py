@@ -1,0 +1,92 @@
+"""Particle state and per-run model constants of the DA-MPM core.
+
+Particles are slab columns. Arrays carry the particle index last (structure of arrays):
+vectors are (dim, n), the affine velocity (dim, dim, n), strains/stresses (3, n) in
+(xx, yy, xy) order. ``dim`` is 1 for a width-uniform strip (PST) and 2 for a slope.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import equinox as eqx
+
+# fault codes raised by the runtime guards (bit flags)
+FAULT_NAN = 1
+FAULT_EDGE = 2
+FAULT_THICKNESS = 4
+FAULT_MESSAGES = {
+    FAULT_NAN: "non-finite velocity (numerical instability)",
+    FAULT_EDGE: "a particle reached the edge of the grid",
+    FAULT_THICKNESS: "slab column height h <= 0",
+}
+
+
+class Model(eqx.Module):
+    """Everything a time step needs that does not evolve (traced leaves + static layout).
+
+    Units: SI. Per-particle arrays have shape (n,) or (dim, n).
+    """
+
+    # static layout
+    grid_shape: tuple[int, ...] = eqx.field(static=True)
+    dx: float = eqx.field(static=True)
+    periodic: tuple[bool, ...] = eqx.field(static=True)  # wrap-around axes
+    lateral: str = eqx.field(static=True)  # strip lateral condition (dim == 1 only)
+    saw_stops: bool = eqx.field(static=True)  # False: controlled cut for the whole run
+    # particle reference positions (cell units) and saw coordinate [m]
+    cell0: Any  # (dim, n) int32
+    frac0: Any  # (dim, n) in [0, 1)
+    saw_coord: Any  # (n,) distance along the saw path in the reference configuration [m]
+    # time step and slab
+    dt: Any  # [s] (traced: a new E never recompiles)
+    density: Any  # rho [kg/m^3]
+    thickness: Any  # h0 [m]
+    area0: Any  # reference column-base area per particle [m^2] (1D: per unit width)
+    youngs_modulus: Any
+    poisson: Any
+    # gravity [m/s^2]: slope-parallel components (dim, n) and the normal component (n,)
+    g_tangent: Any
+    g_normal: Any
+    # weak layer
+    stiffness: Any  # K_wl [Pa/m]
+    tau_peak: Any  # (n,) [Pa]
+    softening: Any
+    u_res: Any  # (n,) residual displacement u_r [m] (inf where unbreakable)
+    friction: Any  # tan(phi) [-]
+    # saw
+    saw_speed: Any  # [m/s]
+    saw_lead: Any  # the saw stops once the crack leads it by this much [m]
+
+    @property
+    def dim(self) -> int:
+        return len(self.grid_shape)
+
+    @property
+    def n_nodes(self) -> int:
+        n = 1
+        for s in self.grid_shape:
+            n *= s
+        return n
+
+    @property
+    def mass(self) -> Any:
+        """Particle mass rho h0 A0 [kg] (constant: h A = h0 A0)."""
+        return self.density * self.thickness * self.area0
+
+
+class State(eqx.Module):
+    """Evolving state of a DA-MPM run."""
+
+    u: Any  # (dim, n) displacement from the reference position = weak-layer slip [m]
+    v: Any  # (dim, n) velocity [m/s]
+    C: Any  # (dim, dim, n) affine velocity (APIC/MLS) [1/s]
+    eps: Any  # (3, n) in-plane small strain (xx, yy, xy) [-]
+    sigma: Any  # (3, n) depth-averaged in-plane stress [Pa]
+    u_max: Any  # (n,) maximum slip reached (damage history) [m]
+    time: Any  # [s]
+    saw_pos: Any  # position of the saw along saw_coord [m]
+    saw_active: Any  # bool
+    tip: Any  # furthest saw_coord where the layer has lost all cohesion [m]
+    fault: Any  # int32 bit flags, FAULT_*
+    fault_time: Any  # simulated time of the first fault [s] (nan if none)

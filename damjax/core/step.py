@@ -1,0 +1,167 @@
+"""The one explicit DA-MPM time step shared by every scenario (1D strip and 2D slope).
+
+Per step (MLS-MPM with APIC momentum, symplectic Euler):
+
+1. weak layer: per particle, the cohesive traction tau = k_sec(u_max) u and whether the
+   layer is broken (sawn or u_max >= u_r);
+2. P2G: mass, momentum including dt times every particle force (gravity, cohesion and the
+   internal force -V0 sigma grad w folded into the affine term), and the friction cap;
+3. grid: v* = p / m, then Coulomb friction as an impulse cap: |v| shrinks by
+   dt F_cap / m, never past zero (a slab at rest stays at rest);
+4. G2P: v, C, displacement, strain increment, stress, damage history;
+5. saw and crack tip bookkeeping, runtime guards.
+
+Depth averaging: momentum per unit area is rho h dv/dt = div(h sigma) - tau_b + rho h g.
+With h A = h0 A0 (mass conservation of the column) the internal force on node i is
+-sum_p h0 A0 sigma_p grad w_ip, gravity is m_p g, the cohesive traction acts on the
+current base area A0 J and the friction cap is m_p g_n tan(phi).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+
+from damjax.core import transfer
+from damjax.core.state import FAULT_EDGE, FAULT_NAN, FAULT_THICKNESS, Model, State
+from damjax.materials import slab, weak_layer
+
+
+def stress_tensor(sigma: Any, dim: int) -> Any:
+    """(dim, dim, n) in-plane stress tensor from (3, n) components."""
+    if dim == 1:
+        return sigma[0][None, None]
+    return jnp.stack([jnp.stack([sigma[0], sigma[2]]), jnp.stack([sigma[2], sigma[1]])])
+
+
+def strain_increment(C: Any, dt: Any, dim: int) -> Any:
+    """(3, n) small-strain increment dt sym(C); the 1D yy part is set by the lateral law."""
+    if dim == 1:
+        z = jnp.zeros_like(C[0, 0])
+        return jnp.stack([dt * C[0, 0], z, z])
+    return dt * jnp.stack([C[0, 0], C[1, 1], 0.5 * (C[0, 1] + C[1, 0])])
+
+
+def broken_mask(model: Model, state: State) -> Any:
+    """Where the weak layer has lost all cohesion (sawn or fully softened)."""
+    cut = model.saw_coord < state.saw_pos
+    return weak_layer.is_broken(state.u_max, model.u_res, cut)
+
+
+def constitutive(model: Model, eps: Any) -> tuple[Any, Any]:
+    """(eps, sigma) after the slab law; 1D strips get eps_yy from the lateral condition."""
+    if model.dim == 1:
+        eps = eps.at[1].set(slab.lateral_strain(eps[0], model.poisson, model.lateral))
+    return eps, slab.plane_stress(eps, model.youngs_modulus, model.poisson)
+
+
+def step(model: Model, state: State) -> State:
+    """Advance the state by one time step dt = model.dt."""
+    dim, dx, dt = model.dim, model.dx, model.dt
+    m = model.mass
+    inv_d = 4.0 / dx**2  # MLS-MPM inverse inertia of the quadratic B-spline
+
+    # 1. weak layer (cohesion only; friction is a grid-level cap below)
+    broken = broken_mask(model, state)
+    k_sec = weak_layer.cohesive_factor(
+        state.u_max,
+        model.tau_peak,
+        residual_shear(model, state),
+        model.stiffness,
+        model.softening,
+        broken,
+    )
+    J = slab.area_ratio(state.eps)
+    # acceleration from gravity and cohesion; area0 / m = 1 / (rho h0)
+    acc = model.g_tangent - (J * k_sec / (model.density * model.thickness)) * state.u
+
+    # 2. P2G
+    st = transfer.stencil(
+        model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic
+    )
+    affine = m * state.C - (dt * inv_d * model.thickness * model.area0) * stress_tensor(
+        state.sigma, dim
+    )
+    v_star = state.v + dt * acc
+    n_nodes = model.n_nodes
+    grid_mass = transfer.p2g(st, st.w * m, n_nodes)
+    grid_mom = []
+    for a in range(dim):
+        q = m * v_star[a][None] + sum(affine[a, b][None] * st.dpos[b] for b in range(dim))
+        grid_mom.append(transfer.p2g(st, st.w * q, n_nodes))
+    fcap = jnp.where(broken, m * model.friction * model.g_normal, 0.0)
+    grid_cap = transfer.p2g(st, st.w * fcap[None], n_nodes)
+
+    # 3. grid update with the Coulomb friction cap
+    has_mass = grid_mass > 0.0
+    inv_m = jnp.where(has_mass, 1.0 / jnp.where(has_mass, grid_mass, 1.0), 0.0)
+    vg = [p * inv_m for p in grid_mom]
+    speed2 = sum(c * c for c in vg)
+    moving = speed2 > 0.0
+    speed = jnp.sqrt(jnp.where(moving, speed2, 1.0))
+    scale = jnp.where(moving, jnp.maximum(0.0, 1.0 - dt * grid_cap * inv_m / speed), 0.0)
+    vg = [c * scale for c in vg]
+
+    # 4. G2P
+    vs = [transfer.g2p(st, c) for c in vg]  # (S, n) each
+    v_new = jnp.stack([jnp.sum(st.w * c, axis=0) for c in vs])
+    C_new = jnp.stack(
+        [jnp.stack([inv_d * jnp.sum(st.w * vs[a] * st.dpos[b], axis=0) for b in range(dim)])
+         for a in range(dim)]
+    )
+    u_new = state.u + dt * v_new
+    eps, sigma = constitutive(model, state.eps + strain_increment(C_new, dt, dim))
+    slip = jnp.sqrt(jnp.sum(u_new * u_new, axis=0)) if dim > 1 else jnp.abs(u_new[0])
+    u_max = jnp.maximum(state.u_max, slip)
+
+    # 5. saw and crack tip
+    time = state.time + dt
+    saw_pos = jnp.where(state.saw_active, model.saw_speed * time, state.saw_pos)
+    broken_new = weak_layer.is_broken(u_max, model.u_res, model.saw_coord < saw_pos)
+    tip = jnp.max(jnp.where(broken_new, model.saw_coord, -jnp.inf))
+    tip = jnp.maximum(tip, state.tip)
+    saw_active = state.saw_active
+    if model.saw_stops:
+        saw_active = saw_active & (tip < saw_pos + model.saw_lead)
+
+    # runtime guards (cheap reductions); the caller stops at the first fault
+    edge = jnp.zeros((), bool)
+    for d in range(dim):
+        if not model.periodic[d]:
+            edge = edge | (jnp.min(st.base[d]) < 0) | (jnp.max(st.base[d]) > model.grid_shape[d] - 3)
+    fault = (
+        jnp.where(~jnp.all(jnp.isfinite(speed2)), FAULT_NAN, 0)
+        | jnp.where(edge, FAULT_EDGE, 0)
+        | jnp.where(jnp.min(slab.area_ratio(eps)) <= 0.0, FAULT_THICKNESS, 0)
+    )
+    fault = state.fault | fault
+    fault_time = jnp.where((state.fault == 0) & (fault != 0), time, state.fault_time)
+
+    return State(
+        u=u_new,
+        v=v_new,
+        C=C_new,
+        eps=eps,
+        sigma=sigma,
+        u_max=u_max,
+        time=time,
+        saw_pos=saw_pos,
+        saw_active=saw_active,
+        tip=tip,
+        fault=fault,
+        fault_time=fault_time,
+    )
+
+
+def residual_shear(model: Model, state: State) -> Any:
+    """tau_r = rho g_n h tan(phi) per particle with the current column height [Pa]."""
+    h = model.thickness / slab.area_ratio(state.eps)
+    return model.density * model.g_normal * h * model.friction
+
+
+def column_height(model: Model, state: State) -> Any:
+    """Current slab column height h = h0 / J [m]."""
+    return model.thickness / slab.area_ratio(state.eps)
+
+

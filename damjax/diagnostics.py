@@ -1,0 +1,122 @@
+"""Crack tip, crack speed, arrest and slab-tension diagnostics of a PST run.
+
+Definitions (all event-based, computed on the host from the tip history):
+
+- crack tip: the furthest x where the weak layer has lost all cohesion (sawn, or
+  u_max >= u_r, which is u_max >= u_c for delta = 0); non-decreasing in time;
+- crack speed: central difference of the tip over a window of `SPEED_WINDOW` seconds;
+- arrested: the tip stopped advancing (it came within one cell of its final value) at
+  least `ARREST_QUIET` seconds before the end, and 2 m or more below the upper end;
+- L_ca (arrest position): the final tip when arrested (NaN otherwise);
+  A_ca = L_ca - L_ss;
+- critical cut length: the saw position when the saw stopped (crack leading by 0.5 m);
+- k_x (controlled runs): least-squares slope of sigma_xx against x over 30 %-80 % of the
+  cut length at the end of the run.
+
+These are discrete events: they are piecewise constant in the parameters and carry no
+useful gradient.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from damjax import theory
+
+SPEED_WINDOW = 0.02  # [s]
+ARREST_QUIET = 0.3  # [s]
+ARREST_MARGIN = 2.0  # [m] below the upper end
+
+
+def crack_speed(time: np.ndarray, tip: np.ndarray, window: float = SPEED_WINDOW) -> np.ndarray:
+    """Crack speed [m/s] at each time, central difference over ``window`` seconds."""
+    if time.size < 3:
+        return np.zeros_like(tip)
+    dt = float(time[1] - time[0])
+    k = max(1, int(round(0.5 * window / dt)))
+    padded = np.concatenate([np.full(k, tip[0]), tip, np.full(k, tip[-1])])
+    speed = (padded[2 * k :] - padded[: -2 * k]) / (2 * k * dt)
+    # the ends see a one-sided window
+    speed[:k] *= 2 * k / (np.arange(k) + k)
+    speed[-k:] *= 2 * k / (np.arange(k, 0, -1) + k - 1)
+    return speed
+
+
+def arrest(
+    time: np.ndarray, tip: np.ndarray, length: float, dx: float
+) -> tuple[bool, float, float]:
+    """(arrested, arrest position L_ca [m] or nan, time the tip stopped [s])."""
+    if tip.size == 0:
+        return False, math.nan, math.nan
+    final = float(tip[-1])
+    stopped = np.nonzero(tip >= final - dx)[0]
+    t_stop = float(time[stopped[0]])
+    arrested = (time[-1] - t_stop >= ARREST_QUIET - 1e-9) and (final <= length - ARREST_MARGIN)
+    return bool(arrested), (final if arrested else math.nan), t_stop
+
+
+def tension_gradient(x: np.ndarray, sigma_xx: np.ndarray, cut: float) -> float:
+    """Least-squares slope of sigma_xx(x) over [0.3, 0.8] x cut [Pa/m]."""
+    sel = (x >= 0.3 * cut) & (x <= 0.8 * cut)
+    if sel.sum() < 3:
+        return math.nan
+    return float(np.polyfit(x[sel], sigma_xx[sel], 1)[0])
+
+
+def _none(v: float) -> float | None:
+    return None if v is None or not math.isfinite(v) else float(v)
+
+
+def summarize(
+    result: Any,
+    *,
+    saw_position: float,
+    saw_stopped: bool,
+    n_particles: int,
+    n_steps: int,
+    compile_time_s: float,
+    wall_time_s: float,
+) -> dict[str, Any]:
+    """The JSON summary of a PST run (None where not applicable)."""
+    p, s = result.params, result.setup
+    cs = float(theory.shear_wave_speed(p))
+    speed = crack_speed(result.time, result.tip)
+    arrested, l_ca, t_stop = arrest(result.time, result.tip, s.length, s.dx)
+    if s.controlled:
+        arrested, l_ca = False, math.nan
+    max_speed = float(np.max(speed)) if speed.size else 0.0
+    kx = kx_th = None
+    if s.controlled:
+        kx = _none(tension_gradient(result.x, result.sigma_xx, min(saw_position, s.length)))
+        kx_th = float(theory.dynamic_gradient(p, float(p.saw_speed), s.lateral))
+    lss = float(p.steady_length)
+    return {
+        "lateral": s.lateral,
+        "controlled": bool(s.controlled),
+        "arrested": arrested,
+        "arrest_position_m": _none(l_ca),
+        "arrest_length_m": _none(l_ca - lss) if arrested else None,
+        "arrest_time_s": _none(t_stop) if arrested else None,
+        "final_tip_m": _none(float(result.tip[-1]) if result.tip.size else math.nan),
+        "critical_cut_length_m": _none(saw_position) if saw_stopped else None,
+        "critical_cut_length_theory_m": None
+        if s.controlled
+        else _none(float(theory.critical_cut_length(p, s.lateral))),
+        "max_crack_speed_m_per_s": max_speed,
+        "max_crack_speed_over_cs": max_speed / cs,
+        "wave_speed_over_cs": float(theory.longitudinal_wave_speed(p, s.lateral)) / cs,
+        "shear_wave_speed_m_per_s": cs,
+        "slab_fractures": [],
+        "tension_gradient_pa_per_m": kx,
+        "tension_gradient_theory_pa_per_m": kx_th,
+        "fault": result.fault,
+        "n_particles": int(n_particles),
+        "n_steps": int(n_steps),
+        "dt_s": float(result.time[0]) if result.time.size else None,
+        "compile_time_s": float(compile_time_s),
+        "wall_time_s": float(wall_time_s),
+        "particle_steps_per_s": n_particles * n_steps / wall_time_s if wall_time_s > 0 else None,
+    }

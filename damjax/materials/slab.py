@@ -1,0 +1,39 @@
+"""Slab constitutive laws: depth-averaged in-plane stress in plane stress.
+
+Strains and stresses are stored in Voigt-like component arrays of shape (3, n):
+(xx, yy, xy) with the *tensor* shear strain eps_xy. Small strains: the slab strains of a
+PST are ~1e-3 and rotations are negligible.
+
+Width-uniform strips (the 1D path) need a lateral condition for eps_yy:
+- "constrained": eps_yy = 0 (periodic in y), sigma_yy = nu sigma_xx, modulus E/(1-nu^2);
+- "free": sigma_yy = 0 (free edges of a narrow strip), modulus E, eps_yy = -nu eps_xx.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+
+
+def plane_stress(eps: Any, youngs_modulus: Any, poisson: Any) -> Any:
+    """Linear elastic plane-stress sigma [Pa] of the strain eps (3, n) (xx, yy, xy)."""
+    c = youngs_modulus / (1.0 - poisson**2)
+    exx, eyy, exy = eps[0], eps[1], eps[2]
+    return jnp.stack(
+        [c * (exx + poisson * eyy), c * (eyy + poisson * exx), c * (1.0 - poisson) * exy]
+    )
+
+
+def lateral_strain(eps_xx: Any, poisson: Any, lateral: str) -> Any:
+    """eps_yy of an elastic width-uniform strip under the lateral condition."""
+    if lateral == "constrained":
+        return jnp.zeros_like(eps_xx)
+    if lateral == "free":
+        return -poisson * eps_xx
+    raise ValueError(f"lateral = {lateral!r}: must be in {{free, constrained}}")
+
+
+def area_ratio(eps: Any) -> Any:
+    """J = det(I + eps) of the in-plane (column-base) area change [-]; h = h0 / J."""
+    return (1.0 + eps[0]) * (1.0 + eps[1]) - eps[2] ** 2

@@ -1,0 +1,300 @@
+"""The propagation saw test (PST) on the DA-MPM core.
+
+Geometry: x runs up-slope along the PST, the slab occupies [0, L]; the saw cuts the weak
+layer from x = 0 upwards. Self-propagating runs saw at `saw_speed` until the crack leads
+the saw by 0.5 m (the saw position then is the critical cut length); controlled runs
+(`PSTSetup.controlled`) make the layer unbreakable and cut it at `saw_speed` for the
+whole run. Both slab ends are free. The grid is padded down-slope by the distance a fully
+released slab can slide in the run, so no particle ever leaves it.
+
+The 1D path (``dim=1``) is the width-uniform strip with the lateral condition of the
+setup; ``dim=2`` runs the same step on a 2D strip (periodic across the width for
+"constrained", free edges of width `width` for "free").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from damjax import theory
+from damjax.config import G_ACC, PSTParams, PSTSetup, validate
+from damjax.core.loop import integrate, integrate_pure
+from damjax.core.state import FAULT_MESSAGES, Model, State
+from damjax.core.step import column_height
+from damjax.materials import weak_layer
+
+SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """Static discretisation derived from the setup (and a padding estimate)."""
+
+    dim: int
+    grid_shape: tuple[int, ...]
+    periodic: tuple[bool, ...]
+    pad_cells: int  # grid cells below x = 0
+    n_particles: int
+    n_chunks: int
+    chunk_steps: int
+
+    @property
+    def n_steps(self) -> int:
+        return self.n_chunks * self.chunk_steps
+
+
+def _concrete_max(x: Any) -> float:
+    return float(np.max(np.asarray(x, dtype=float)))
+
+
+def time_step(params: PSTParams, setup: PSTSetup) -> float:
+    """Largest stable dt [s] = cfl dx / (c_p + v_slide) for the (batched) parameters."""
+    lateral = "constrained" if setup.dim == 2 else setup.lateral
+    c = _concrete_max(theory.longitudinal_wave_speed(params, lateral))
+    return setup.cfl * setup.dx / (c + _slide_accel(params) * setup.duration)
+
+
+def _slide_accel(params: PSTParams) -> float:
+    """Acceleration of a fully released slab, g (sin psi - cos psi tan phi) >= 0 [m/s^2]."""
+    psi = np.radians(np.asarray(params.slope_deg, dtype=float))
+    phi = np.radians(np.asarray(params.friction_deg, dtype=float))
+    return float(np.max(np.maximum(G_ACC * (np.sin(psi) - np.cos(psi) * np.tan(phi)), 0.0)))
+
+
+def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
+    """Grid and step counts; parameters enter only through concrete maxima (a batch's)."""
+    dx, ppc = setup.dx, int(setup.particles_per_cell)
+    n_cells = max(1, int(round(setup.length / dx)))
+    slide = 0.5 * _slide_accel(params) * setup.duration**2
+    pad = int(math.ceil((1.25 * slide + 1.0) / dx)) + 3
+    pad_top = int(math.ceil(1.0 / dx)) + 3
+    nx = pad + n_cells + pad_top
+    dt_max = time_step(params, setup)
+    chunk = int(setup.chunk_steps)
+    n_chunks = max(1, int(math.ceil(setup.duration / dt_max / chunk)))
+    if setup.dim == 1:
+        return Layout(1, (nx,), (False,), pad, n_cells * ppc, n_chunks, chunk)
+    if setup.lateral == "constrained":
+        ny = 3
+        shape, periodic, n_y = (nx, ny), (False, True), ny
+    else:
+        n_y = max(1, int(round(setup.width / dx)))
+        shape, periodic = (nx, n_y + 8), (False, False)
+    return Layout(2, shape, periodic, pad, n_cells * ppc * n_y * ppc, n_chunks, chunk)
+
+
+def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:
+    """Model constants and the initial state (slab in equilibrium on the loaded layer)."""
+    dtype = jnp.dtype(setup.dtype)
+    f = lambda x: jnp.asarray(x, dtype)  # noqa: E731
+    dx, ppc = setup.dx, int(setup.particles_per_cell)
+    n_cells = max(1, int(round(setup.length / dx)))
+    sub = (np.arange(ppc) + 0.5) / ppc
+    # reference positions along x (cell index + offset), slab cells start at pad_cells
+    cx = np.repeat(np.arange(n_cells), ppc)
+    fx = np.tile(sub, n_cells)
+    if layout.dim == 1:
+        cell0 = (cx + layout.pad_cells)[None]
+        frac0 = fx[None]
+        area0 = dx / ppc
+    else:
+        n_y = 3 if setup.lateral == "constrained" else layout.grid_shape[1] - 8
+        y0 = 0 if setup.lateral == "constrained" else 4
+        cy = np.repeat(np.arange(n_y), ppc)
+        fy = np.tile(sub, n_y)
+        cell0 = np.stack(
+            [np.repeat(cx, cy.size) + layout.pad_cells, np.tile(cy, cx.size) + y0]
+        )
+        frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
+        area0 = (dx / ppc) ** 2
+    x_ref = (cell0[0] - layout.pad_cells + frac0[0]) * dx  # [m] along the PST
+    n = x_ref.size
+
+    psi = jnp.deg2rad(f(params.slope_deg))
+    phi = jnp.deg2rad(f(params.friction_deg))
+    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
+    x_ref_j = jnp.asarray(x_ref, dtype)
+    if setup.controlled:
+        tau_p = jnp.full((n,), jnp.inf, dtype)
+    else:
+        tau_p = weak_layer.strength_profile(
+            x_ref_j, f(params.tau_peak), f(params.steady_length), f(params.strength_gradient)
+        )
+    _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
+    g_t = jnp.zeros((layout.dim, n), dtype).at[0].set(-G_ACC * jnp.sin(psi))
+    n_steps = layout.n_steps
+    model = Model(
+        grid_shape=layout.grid_shape,
+        dx=float(dx),
+        periodic=layout.periodic,
+        lateral=setup.lateral,
+        saw_stops=not setup.controlled,
+        cell0=jnp.asarray(cell0, jnp.int32),
+        frac0=jnp.asarray(frac0, dtype),
+        saw_coord=x_ref_j,
+        dt=f(setup.duration / n_steps),
+        density=f(params.density),
+        thickness=f(params.thickness),
+        area0=f(area0),
+        youngs_modulus=f(params.youngs_modulus),
+        poisson=f(params.poisson),
+        g_tangent=g_t,
+        g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
+        stiffness=K,
+        tau_peak=tau_p,
+        softening=f(params.softening),
+        u_res=u_res,
+        friction=jnp.tan(phi),
+        saw_speed=f(params.saw_speed),
+        saw_lead=f(SAW_LEAD),
+    )
+    tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
+    u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
+    zeros3 = jnp.zeros((3, n), dtype)
+    state = State(
+        u=u0,
+        v=jnp.zeros((layout.dim, n), dtype),
+        C=jnp.zeros((layout.dim, layout.dim, n), dtype),
+        eps=zeros3,
+        sigma=jnp.zeros((3, n), dtype),
+        u_max=jnp.abs(u0[0]),
+        time=f(0.0),
+        saw_pos=f(0.0),
+        saw_active=jnp.asarray(True),
+        tip=f(0.0),
+        fault=jnp.asarray(0, jnp.int32),
+        fault_time=f(jnp.nan),
+    )
+    return model, state
+
+
+def _snapshot(model: Model, state: State) -> dict[str, Any]:
+    return {
+        "time": state.time,
+        "sigma_xx": state.sigma[0],
+        "height": column_height(model, state),
+        "slip": state.u[0],
+        "tip": state.tip,
+    }
+
+
+@dataclasses.dataclass
+class PSTResult:
+    """Outcome of a PST run (numpy arrays, SI units).
+
+    Event-based diagnostics (crack tip, arrest) are computed on the host from the tip
+    history; they are discrete and not differentiable (see `damjax.diagnostics`).
+    """
+
+    params: PSTParams
+    setup: PSTSetup
+    x: np.ndarray  # (n,) particle reference position along the PST [m]
+    time: np.ndarray  # (n_steps,) time after each step [s]
+    tip: np.ndarray  # (n_steps,) crack tip position [m]
+    sigma_xx: np.ndarray  # (n,) final slab tension [Pa]
+    height: np.ndarray  # (n,) final column height [m]
+    slip: np.ndarray  # (n,) final slope-parallel displacement [m]
+    u_max: np.ndarray  # (n,) maximum slip reached [m]
+    tau_peak: np.ndarray  # (n,) weak-layer strength [Pa]
+    snapshots: dict[str, np.ndarray]  # fields at the end of every chunk
+    summary: dict[str, Any]
+    fault: str | None = None
+
+    @property
+    def arrested(self) -> bool:
+        return bool(self.summary["arrested"])
+
+    @property
+    def arrest_position(self) -> float:
+        v = self.summary["arrest_position_m"]
+        return math.nan if v is None else float(v)
+
+
+def simulate_pst(
+    params: PSTParams | None = None,
+    setup: PSTSetup | None = None,
+    progress: bool = False,
+) -> PSTResult:
+    """Run a PST and return its diagnostics (see `PSTResult`, `damjax.diagnostics`).
+
+    Args:
+        params: physical parameters (default: the paper's elastic baseline).
+        setup: numerics (default: 100 m, dx = 0.02 m, 3 s, free lateral condition).
+        progress: show a tqdm progress bar.
+    """
+    from damjax import diagnostics
+
+    params = PSTParams() if params is None else params
+    setup = PSTSetup() if setup is None else setup
+    validate(params, setup)
+    if setup.dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    layout = make_layout(params, setup)
+    model, state = build(params, setup, layout)
+    x_ref = np.asarray(model.saw_coord)
+    tau_p = np.asarray(model.tau_peak)
+    final, tips, snaps, info = integrate(
+        model, state, layout.n_chunks, layout.chunk_steps, snapshot=_snapshot, progress=progress
+    )
+    dt = float(model.dt)
+    times = dt * np.arange(1, tips.size + 1)
+    fault = None
+    if int(final.fault) != 0:
+        msgs = [m for bit, m in FAULT_MESSAGES.items() if int(final.fault) & bit]
+        fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(msgs)
+        # keep the history up to the fault
+        keep = times < float(final.fault_time)
+        times, tips = times[keep], tips[keep]
+    snapshots = {k: np.stack([s[k] for s in snaps]) for k in snaps[0]} if snaps else {}
+    sigma_xx = np.asarray(final.sigma[0])
+    height = np.asarray(column_height(model, final))
+    if layout.dim == 2:  # report the strip's centre-line average per x
+        x_ref, sigma_xx, height = _width_average(x_ref, sigma_xx, height)
+        tau_p = _width_average(np.asarray(model.saw_coord), tau_p)[1]
+    result = PSTResult(
+        params=params,
+        setup=setup,
+        x=x_ref,
+        time=times,
+        tip=tips,
+        sigma_xx=sigma_xx,
+        height=height,
+        slip=np.asarray(final.u[0]),
+        u_max=np.asarray(final.u_max),
+        tau_peak=tau_p,
+        snapshots=snapshots,
+        summary={},
+        fault=fault,
+    )
+    saw_stopped = not bool(final.saw_active)
+    result.summary = diagnostics.summarize(
+        result,
+        saw_position=float(final.saw_pos),
+        saw_stopped=saw_stopped,
+        n_particles=layout.n_particles,
+        n_steps=int(times.size),
+        compile_time_s=info.compile_time_s,
+        wall_time_s=info.wall_time_s,
+    )
+    return result
+
+
+def _width_average(x: np.ndarray, *fields: np.ndarray) -> tuple[np.ndarray, ...]:
+    xs, inv = np.unique(np.round(x, 9), return_inverse=True)
+    out = [xs]
+    for fld in fields:
+        out.append(np.bincount(inv, weights=fld) / np.bincount(inv))
+    return tuple(out)
+
+
+def run_pure(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State, Any]:
+    """Traceable full run (for grad / vmap): model, final state and tip per step."""
+    model, state = build(params, setup, layout)
+    final, tips = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps)
+    return model, final, tips

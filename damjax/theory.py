@@ -1,0 +1,131 @@
+"""Closed forms of the paper (Meloche et al.), usable on floats, numpy or JAX arrays.
+
+All functions take a `PSTParams`-like object (anything with the fields) and the lateral
+condition of the strip where the slab modulus matters:
+
+- ``"constrained"`` (eps_yy = 0): modulus E' = E / (1 - nu^2) (paper Eq. 8, App. A);
+- ``"free"`` (sigma_yy = 0): bar modulus E.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as _np
+
+from damjax.config import G_ACC
+
+try:  # theory works on JAX tracers too
+    import jax.numpy as _jnp
+except ImportError:  # pragma: no cover
+    _jnp = _np
+
+
+def _xp(*xs: Any) -> Any:
+    for x in xs:
+        if type(x).__module__.startswith("jax"):
+            return _jnp
+    return _np
+
+
+def _rad(deg: Any) -> Any:
+    return deg * (_np.pi / 180.0)
+
+
+def strip_modulus(p: Any, lateral: str = "free") -> Any:
+    """Longitudinal modulus of a width-uniform strip [Pa]: E (free) or E/(1-nu^2)."""
+    if lateral == "free":
+        return p.youngs_modulus
+    if lateral == "constrained":
+        return p.youngs_modulus / (1.0 - p.poisson**2)
+    raise ValueError(f"lateral = {lateral!r}: must be in {{free, constrained}}")
+
+
+def shear_wave_speed(p: Any) -> Any:
+    """c_s = sqrt(G / rho), G = E / (2 (1 + nu)) [m/s]."""
+    xp = _xp(p.youngs_modulus)
+    return xp.sqrt(p.youngs_modulus / (2.0 * (1.0 + p.poisson)) / p.density)
+
+
+def longitudinal_wave_speed(p: Any, lateral: str = "free") -> Any:
+    """c_p = sqrt(E_strip / rho) [m/s] (1.61 c_s free, 1.69 c_s constrained at nu=0.3)."""
+    xp = _xp(p.youngs_modulus)
+    return xp.sqrt(strip_modulus(p, lateral) / p.density)
+
+
+def plane_stress_wave_speed(p: Any) -> Any:
+    """Fastest wave of the 2D plane-stress slab, sqrt(E/((1-nu^2) rho)) [m/s]."""
+    return longitudinal_wave_speed(p, "constrained")
+
+
+def gravity_shear(p: Any) -> Any:
+    """tau_g = rho g h sin(psi): weak-layer shear stress at rest [Pa] (703 Pa baseline)."""
+    xp = _xp(p.slope_deg)
+    return p.density * G_ACC * p.thickness * xp.sin(_rad(p.slope_deg))
+
+
+def residual_shear(p: Any) -> Any:
+    """tau_r = rho g h cos(psi) tan(phi): residual friction [Pa] (512 Pa baseline)."""
+    xp = _xp(p.slope_deg)
+    return (
+        p.density * G_ACC * p.thickness * xp.cos(_rad(p.slope_deg)) * xp.tan(_rad(p.friction_deg))
+    )
+
+
+def quasi_static_gradient(p: Any) -> Any:
+    """k_f = rho g sin(psi) (1 - tan(phi)/tan(psi)) [Pa/m] (paper Eq. 7; 383 Pa/m)."""
+    xp = _xp(p.slope_deg)
+    psi, phi = _rad(p.slope_deg), _rad(p.friction_deg)
+    return p.density * G_ACC * xp.sin(psi) * (1.0 - xp.tan(phi) / xp.tan(psi))
+
+
+def dynamic_gradient(p: Any, crack_speed: Any, lateral: str = "free") -> Any:
+    """k_x = c_p^2 k_f / (c_p^2 + adot^2): slab tension gradient behind a crack running at
+    ``crack_speed`` [m/s] (paper Eq. 8, App. A), with c_p of the lateral condition [Pa/m]."""
+    cp2 = strip_modulus(p, lateral) / p.density
+    return cp2 * quasi_static_gradient(p) / (cp2 + crack_speed**2)
+
+
+def wl_stiffness(p: Any) -> Any:
+    """K_wl = G_wl / D_wl [Pa/m]."""
+    return p.wl_shear_modulus / p.wl_thickness
+
+
+def elastic_length(p: Any) -> Any:
+    """Lambda = sqrt(E h D_wl / ((1 - nu^2) G_wl)) [m] (0.66 m baseline)."""
+    xp = _xp(p.youngs_modulus)
+    return xp.sqrt(
+        p.youngs_modulus * p.thickness * p.wl_thickness / ((1.0 - p.poisson**2) * p.wl_shear_modulus)
+    )
+
+
+def tensile_length(p: Any) -> Any:
+    """L_t = sigma_t / k_f [m] (15.7 m at 6 kPa)."""
+    return p.tensile_strength / quasi_static_gradient(p)
+
+
+def elastic_number(p: Any) -> Any:
+    """Elastic scaling number tau_g / (theta Lambda sqrt(1 + delta)) [-] (paper Eq. 9)."""
+    xp = _xp(p.strength_gradient)
+    return gravity_shear(p) / (p.strength_gradient * elastic_length(p) * xp.sqrt(1.0 + p.softening))
+
+
+def plastic_number(p: Any) -> Any:
+    """Elasto-plastic number tau_g/(theta Lambda sqrt(1+delta)) sqrt(sigma_t/tau_g) (Eq. 10)."""
+    xp = _xp(p.tensile_strength)
+    return elastic_number(p) * xp.sqrt(p.tensile_strength / gravity_shear(p))
+
+
+def critical_cut_length(p: Any, lateral: str = "free") -> Any:
+    """Quasi-static critical cut length a_c of a brittle (delta = 0) weak layer [m].
+
+    Beam on an elastic foundation with a cut of length a carrying the residual friction:
+    the cut slab transmits the force (tau_g - tau_r) a to the intact part, whose shear
+    stress at the tip then is tau_g + (tau_g - tau_r) a / lambda (lambda = sqrt(E_s h / K),
+    E_s the strip modulus; semi-infinite bar under an end load). Failure when that reaches
+    tau_p:  a_c = lambda (tau_p - tau_g) / (tau_g - tau_r).
+    """
+    xp = _xp(p.youngs_modulus)
+    lam = xp.sqrt(strip_modulus(p, lateral) * p.thickness / wl_stiffness(p))
+    tg, tr = gravity_shear(p), residual_shear(p)
+    return lam * (p.tau_peak - tg) / (tg - tr)
