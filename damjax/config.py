@@ -234,7 +234,9 @@ def setup_problems(setup: PSTSetup) -> list[str]:
         if isinstance(value, bool) or math.isnan(v) or not ok(v):
             problems.append(_problem(name, value, valid))
     if setup.lateral not in LATERAL_CONDITIONS:
-        problems.append(_problem("lateral", setup.lateral, "{" + ", ".join(LATERAL_CONDITIONS) + "}"))
+        problems.append(
+            _problem("lateral", setup.lateral, "{" + ", ".join(LATERAL_CONDITIONS) + "}")
+        )
     if setup.dtype not in DTYPES:
         problems.append(_problem("dtype", setup.dtype, "{" + ", ".join(DTYPES) + "}"))
     if not isinstance(setup.controlled, bool):

@@ -95,7 +95,10 @@ def elastic_length(p: Any) -> Any:
     """Lambda = sqrt(E h D_wl / ((1 - nu^2) G_wl)) [m] (0.66 m baseline)."""
     xp = _xp(p.youngs_modulus)
     return xp.sqrt(
-        p.youngs_modulus * p.thickness * p.wl_thickness / ((1.0 - p.poisson**2) * p.wl_shear_modulus)
+        p.youngs_modulus
+        * p.thickness
+        * p.wl_thickness
+        / ((1.0 - p.poisson**2) * p.wl_shear_modulus)
     )
 
 

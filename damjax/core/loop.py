@@ -42,7 +42,7 @@ _compiled: dict[Any, Any] = {}
 
 def _signature(tree: Any) -> Any:
     leaves, treedef = jax.tree.flatten(tree)
-    return treedef, tuple((np.shape(x), np.result_type(x)) for x in leaves)
+    return treedef, tuple((np.shape(x), str(getattr(x, "dtype", type(x)))) for x in leaves)
 
 
 def compile_chunk(model: Model, state: State, n_steps: int) -> tuple[Any, float]:

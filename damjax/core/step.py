@@ -77,9 +77,7 @@ def step(model: Model, state: State) -> State:
     acc = model.g_tangent - (J * k_sec / (model.density * model.thickness)) * state.u
 
     # 2. P2G
-    st = transfer.stencil(
-        model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic
-    )
+    st = transfer.stencil(model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic)
     affine = m * state.C - (dt * inv_d * model.thickness * model.area0) * stress_tensor(
         state.sigma, dim
     )
@@ -107,8 +105,10 @@ def step(model: Model, state: State) -> State:
     vs = [transfer.g2p(st, c) for c in vg]  # (S, n) each
     v_new = jnp.stack([jnp.sum(st.w * c, axis=0) for c in vs])
     C_new = jnp.stack(
-        [jnp.stack([inv_d * jnp.sum(st.w * vs[a] * st.dpos[b], axis=0) for b in range(dim)])
-         for a in range(dim)]
+        [
+            jnp.stack([inv_d * jnp.sum(st.w * vs[a] * st.dpos[b], axis=0) for b in range(dim)])
+            for a in range(dim)
+        ]
     )
     u_new = state.u + dt * v_new
     eps, sigma = constitutive(model, state.eps + strain_increment(C_new, dt, dim))
@@ -129,7 +129,9 @@ def step(model: Model, state: State) -> State:
     edge = jnp.zeros((), bool)
     for d in range(dim):
         if not model.periodic[d]:
-            edge = edge | (jnp.min(st.base[d]) < 0) | (jnp.max(st.base[d]) > model.grid_shape[d] - 3)
+            edge = (
+                edge | (jnp.min(st.base[d]) < 0) | (jnp.max(st.base[d]) > model.grid_shape[d] - 3)
+            )
     fault = (
         jnp.where(~jnp.all(jnp.isfinite(speed2)), FAULT_NAN, 0)
         | jnp.where(edge, FAULT_EDGE, 0)
@@ -163,5 +165,3 @@ def residual_shear(model: Model, state: State) -> Any:
 def column_height(model: Model, state: State) -> Any:
     """Current slab column height h = h0 / J [m]."""
     return model.thickness / slab.area_ratio(state.eps)
-
-

@@ -72,14 +72,11 @@ def stencil(
             wk = wk * w1[o[d]][d]
         w.append(wk)
         node = [
-            (base[d] + o[d]) % grid_shape[d] if periodic[d] else base[d] + o[d]
-            for d in range(dim)
+            (base[d] + o[d]) % grid_shape[d] if periodic[d] else base[d] + o[d] for d in range(dim)
         ]
         idx.append(sum(node[d] * st[d] for d in range(dim)))
         dpos.append(jnp.stack([(o[d] - fx[d]) * dx for d in range(dim)]))
-    return Stencil(
-        idx=jnp.stack(idx), w=jnp.stack(w), dpos=jnp.stack(dpos, axis=1), base=base
-    )
+    return Stencil(idx=jnp.stack(idx), w=jnp.stack(w), dpos=jnp.stack(dpos, axis=1), base=base)
 
 
 def p2g(st: Stencil, values: Any, n_nodes: int) -> Any:

@@ -40,12 +40,12 @@ def cohesive_factor(
 
     k_sec = K while intact, envelope(u_max) / u_max while softening, 0 when broken.
     """
-    u_c, u_r = critical_displacements(tau_peak, stiffness, softening)
     finite = jnp.isfinite(tau_peak)
-    # Safe stand-ins keep the unused branch finite (NaN-free values and gradients).
-    u_c_s = jnp.where(finite, u_c, 1.0)
-    span = jnp.where(finite & (softening > 0), u_r - u_c, 1.0)
-    tau_p_s = jnp.where(finite, tau_peak, 0.0)
+    # Safe stand-ins keep the unused branch finite (NaN-free values and gradients:
+    # an inf anywhere in a discarded branch still poisons the gradient as 0 * inf).
+    tau_p_s = jnp.where(finite, tau_peak, 1.0)
+    u_c_s, u_r_s = critical_displacements(tau_p_s, stiffness, softening)
+    span = jnp.where(softening > 0, u_r_s - u_c_s, 1.0)
     softening_zone = finite & (u_max >= u_c_s)
     u_max_s = jnp.where(softening_zone, u_max, u_c_s)
     frac = jnp.clip((u_max_s - u_c_s) / span, 0.0, 1.0)

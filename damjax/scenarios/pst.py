@@ -108,9 +108,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         y0 = 0 if setup.lateral == "constrained" else 4
         cy = np.repeat(np.arange(n_y), ppc)
         fy = np.tile(sub, n_y)
-        cell0 = np.stack(
-            [np.repeat(cx, cy.size) + layout.pad_cells, np.tile(cy, cx.size) + y0]
-        )
+        cell0 = np.stack([np.repeat(cx, cy.size) + layout.pad_cells, np.tile(cy, cx.size) + y0])
         frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
         area0 = (dx / ppc) ** 2
     x_ref = (cell0[0] - layout.pad_cells + frac0[0]) * dx  # [m] along the PST

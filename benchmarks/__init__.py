@@ -1,0 +1,1 @@
+"""damjax benchmark suite: ``python -m benchmarks [CASE ...]`` prints JSON lines."""

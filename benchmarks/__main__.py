@@ -1,0 +1,36 @@
+"""Run benchmark cases, each in its own process (clean peak-RSS figures).
+
+    python -m benchmarks                 # every case
+    python -m benchmarks pst_f32 mpm88   # some cases
+    python -m benchmarks --list
+
+Each case prints one JSON object per line on stdout.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from benchmarks.cases import CASES
+
+
+def main(argv: list[str]) -> int:
+    if "--list" in argv:
+        for name, fn in CASES.items():
+            print(f"{name:16s} {(fn.__doc__ or '').strip().splitlines()[0]}")
+        return 0
+    names = argv or list(CASES)
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        sys.stderr.write(f"unknown case(s) {unknown}; choose from {list(CASES)}\n")
+        return 2
+    rc = 0
+    for name in names:
+        proc = subprocess.run([sys.executable, "-m", "benchmarks.cases", name])
+        rc = rc or proc.returncode
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

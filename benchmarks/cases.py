@@ -1,0 +1,144 @@
+"""Benchmark cases. Timings are warm: compilation is measured and reported separately."""
+
+from __future__ import annotations
+
+import json
+import resource
+import sys
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+CASES: dict[str, Callable[[], None]] = {}
+
+
+def case(fn: Callable[[], None]) -> Callable[[], None]:
+    CASES[fn.__name__] = fn
+    return fn
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process [MB] (Linux ru_maxrss is in kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def emit(**row: object) -> None:
+    row.setdefault("peak_rss_mb", round(peak_rss_mb(), 1))
+    print(json.dumps(row), flush=True)
+
+
+def _pst_row(case_name: str, params, setup) -> dict:
+    from damjax import simulate_pst
+
+    r = simulate_pst(params, setup)
+    s = r.summary
+    return dict(
+        case=case_name,
+        n_particles=s["n_particles"],
+        n_steps=s["n_steps"],
+        dtype=setup.dtype,
+        dx=setup.dx,
+        lateral=setup.lateral,
+        compile_time_s=round(s["compile_time_s"], 3),
+        wall_time_s=round(s["wall_time_s"], 3),
+        particle_steps_per_s=round(s["particle_steps_per_s"]),
+        arrest_position_m=s["arrest_position_m"],
+        max_crack_speed_over_cs=s["max_crack_speed_over_cs"],
+    )
+
+
+@case
+def pst_f32() -> None:
+    """Full baseline PST (100 m, dx 0.02 m, 3 s), float32."""
+    from damjax import PSTParams, PSTSetup
+
+    emit(**_pst_row("pst_f32", PSTParams(), PSTSetup()))
+
+
+@case
+def pst_f64() -> None:
+    """Full baseline PST (100 m, dx 0.02 m, 3 s), float64."""
+    from damjax import PSTParams, PSTSetup
+
+    emit(**_pst_row("pst_f64", PSTParams(), PSTSetup(dtype="float64")))
+
+
+@case
+def pst_scaling() -> None:
+    """Cost growth: baseline PST at dx 0.04, 0.02, 0.01 m; fitted exponent of wall time."""
+    from damjax import PSTParams, PSTSetup
+
+    rows = []
+    for dx in (0.04, 0.02, 0.01):
+        row = _pst_row(f"pst_dx{dx}", PSTParams(), PSTSetup(dx=dx))
+        emit(**row)
+        rows.append(row)
+    work = np.log([r["n_particles"] * r["n_steps"] for r in rows])
+    wall = np.log([r["wall_time_s"] for r in rows])
+    slope = float(np.polyfit(work, wall, 1)[0])
+    emit(
+        case="pst_scaling",
+        exponent_wall_vs_particle_steps=round(slope, 3),
+        n_particles=[r["n_particles"] for r in rows],
+        n_steps=[r["n_steps"] for r in rows],
+        dtype="float32",
+        compile_time_s=None,
+        wall_time_s=[r["wall_time_s"] for r in rows],
+        particle_steps_per_s=[r["particle_steps_per_s"] for r in rows],
+    )
+
+
+@case
+def kx_controlled() -> None:
+    """Controlled sawing at adot/c_s = 0.2, 0.8, 1.4: k_x against Appendix A (full size)."""
+    from damjax import PSTParams, PSTSetup, simulate_pst, theory
+
+    cs = float(theory.shear_wave_speed(PSTParams()))
+    for lateral in ("free", "constrained"):
+        for ratio in (0.2, 0.8, 1.4):
+            adot = ratio * cs
+            setup = PSTSetup(controlled=True, lateral=lateral, duration=min(3.0, 80.0 / adot))
+            r = simulate_pst(PSTParams(saw_speed=adot), setup)
+            s = r.summary
+            kx, kth = s["tension_gradient_pa_per_m"], s["tension_gradient_theory_pa_per_m"]
+            emit(
+                case="kx_controlled",
+                lateral=lateral,
+                adot_over_cs=ratio,
+                k_x=kx,
+                k_x_theory=kth,
+                rel_error=kx / kth - 1,
+                n_particles=s["n_particles"],
+                n_steps=s["n_steps"],
+                dtype="float32",
+                compile_time_s=s["compile_time_s"],
+                wall_time_s=s["wall_time_s"],
+                particle_steps_per_s=s["particle_steps_per_s"],
+            )
+
+
+@case
+def pst_elastic_targets() -> None:
+    """Self-propagating elastic PSTs (theta 500, L_ss 20): arrest and crack speed targets."""
+    from damjax import PSTParams, PSTSetup
+
+    for lateral in ("free", "constrained"):
+        for delta in (0.0, 2.0):
+            row = _pst_row("pst_elastic", PSTParams(softening=delta), PSTSetup(lateral=lateral))
+            r = dict(row, softening=delta, youngs_modulus=4e6)
+            emit(**r)
+        for E in (2e6, 6e6):
+            row = _pst_row("pst_elastic", PSTParams(youngs_modulus=E), PSTSetup(lateral=lateral))
+            emit(**dict(row, softening=0.0, youngs_modulus=E))
+
+
+def _run(name: str) -> None:
+    t0 = time.perf_counter()
+    CASES[name]()
+    sys.stderr.write(f"[{name}: {time.perf_counter() - t0:.1f} s]\n")
+
+
+if __name__ == "__main__":
+    for n in sys.argv[1:]:
+        _run(n)

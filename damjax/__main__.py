@@ -1,0 +1,5 @@
+import sys
+
+from damjax.cli import main
+
+sys.exit(main())

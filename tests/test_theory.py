@@ -1,0 +1,47 @@
+import math
+
+import numpy as np
+import pytest
+
+from damjax import PSTParams, theory
+
+
+def test_baseline_numbers_match_physics_notes():
+    p = PSTParams()
+    assert theory.gravity_shear(p) == pytest.approx(703, abs=1)
+    assert theory.residual_shear(p) == pytest.approx(512, abs=1)
+    assert theory.quasi_static_gradient(p) == pytest.approx(383, abs=1)
+    assert theory.elastic_length(p) == pytest.approx(0.66, abs=0.01)
+    assert theory.tensile_length(PSTParams(tensile_strength=6000.0)) == pytest.approx(15.7, abs=0.1)
+    cs = theory.shear_wave_speed(p)
+    assert theory.longitudinal_wave_speed(p, "constrained") / cs == pytest.approx(1.69, abs=0.01)
+    assert theory.longitudinal_wave_speed(p, "free") / cs == pytest.approx(1.61, abs=0.01)
+
+
+def test_dynamic_gradient_limits():
+    p = PSTParams()
+    kf = theory.quasi_static_gradient(p)
+    assert theory.dynamic_gradient(p, 0.0) == pytest.approx(kf)
+    for lateral in ("free", "constrained"):
+        cp = theory.longitudinal_wave_speed(p, lateral)
+        assert theory.dynamic_gradient(p, cp, lateral) == pytest.approx(kf / 2)
+    # the two lateral conditions differ by ~4.5 % at 1.6 c_s (physics notes)
+    a = 1.6 * theory.shear_wave_speed(p)
+    ratio = theory.dynamic_gradient(p, a, "constrained") / theory.dynamic_gradient(p, a, "free")
+    assert 1.03 < ratio < 1.06
+
+
+def test_dimensionless_numbers_and_jax_inputs():
+    import jax.numpy as jnp
+
+    p = PSTParams(strength_gradient=500.0, softening=1.0, tensile_strength=6000.0)
+    pi1 = theory.elastic_number(p)
+    assert pi1 == pytest.approx(703.0 / (500 * 0.663 * math.sqrt(2)), rel=0.01)
+    assert theory.plastic_number(p) == pytest.approx(pi1 * math.sqrt(6000 / 703.0), rel=0.01)
+    pj = PSTParams(youngs_modulus=jnp.asarray([2e6, 4e6]))
+    assert np.asarray(theory.elastic_length(pj)).shape == (2,)
+
+
+def test_unknown_lateral_condition_is_an_error():
+    with pytest.raises(ValueError, match="lateral"):
+        theory.strip_modulus(PSTParams(), "sideways")

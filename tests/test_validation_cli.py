@@ -1,0 +1,140 @@
+"""Bad input gives one clear line per problem (API: ValueError; CLI: exit status 2)."""
+
+import json
+import math
+import subprocess
+import sys
+import warnings
+
+import pytest
+
+from damjax import PSTParams, PSTSetup, simulate_pst
+from damjax.cli import main
+
+BAD_PARAMS = [
+    ("thickness", 0.0, "--thickness"),
+    ("density", -250.0, "--density"),
+    ("youngs_modulus", 0.0, "--youngs-modulus"),
+    ("poisson", 0.5, "--poisson"),
+    ("poisson", 0.0, "--poisson"),
+    ("slope_deg", 90.0, "--slope-deg"),
+    ("slope_deg", math.nan, "--slope-deg"),
+    ("friction_deg", -1.0, "--friction-deg"),
+    ("tau_peak", -5.0, "--tau-peak"),
+    ("strength_gradient", -1.0, "--strength-gradient"),
+    ("softening", -0.1, "--softening"),
+    ("saw_speed", -6.0, "--saw-speed"),
+    ("tensile_strength", -1.0, "--tensile-strength"),
+    ("wl_thickness", math.nan, "--wl-thickness"),
+]
+BAD_SETUP = [
+    ("length", 0.0, "--length"),
+    ("dx", -0.02, "--dx"),
+    ("duration", 0.0, "--duration"),
+    ("cfl", 1.0, "--cfl"),
+    ("cfl", 0.0, "--cfl"),
+    ("particles_per_cell", 0, "--particles-per-cell"),
+    ("lateral", "sideways", "--lateral"),
+    ("dtype", "float16", "--dtype"),
+]
+
+
+@pytest.mark.parametrize("field,value,flag", BAD_PARAMS)
+def test_api_rejects_bad_params(field, value, flag):
+    with pytest.raises(ValueError) as exc:
+        simulate_pst(PSTParams(**{field: value}), PSTSetup(length=5.0, dx=0.05))
+    msg = str(exc.value)
+    assert len(msg.splitlines()) == 1
+    assert field in msg and flag in msg and "must be in" in msg
+
+
+@pytest.mark.parametrize("field,value,flag", BAD_SETUP)
+def test_api_rejects_bad_setup(field, value, flag):
+    with pytest.raises(ValueError) as exc:
+        simulate_pst(PSTParams(), PSTSetup(**{"length": 5.0, "dx": 0.05, field: value}))
+    assert flag in str(exc.value)
+
+
+def test_dx_must_resolve_the_elastic_length():
+    with pytest.raises(ValueError, match="Lambda/2"):
+        simulate_pst(PSTParams(), PSTSetup(length=5.0, dx=0.4))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        simulate_pst(
+            PSTParams(steady_length=1.0),
+            PSTSetup(length=3.0, dx=0.2, duration=0.05, chunk_steps=10),
+        )
+    assert any("Lambda/5" in str(w.message) for w in caught)
+
+
+def test_inconsistent_values_are_rejected():
+    with pytest.raises(ValueError, match="steady_length"):
+        simulate_pst(PSTParams(steady_length=30.0), PSTSetup(length=20.0, dx=0.05))
+    with pytest.raises(ValueError, match="tau_g"):
+        simulate_pst(PSTParams(tau_peak=500.0), PSTSetup(length=5.0, dx=0.05))
+
+
+def test_several_problems_one_line_each(capsys):
+    rc = main(["pst", "--dx", "-1", "--poisson", "0.7", "--lateral", "x", "--cfl", "2", "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 4
+    assert all(line.startswith("damjax: error: ") for line in err)
+    for flag in ("--dx", "--poisson", "--lateral", "--cfl"):
+        assert any(flag in line for line in err)
+
+
+def test_cli_non_numeric_value_exits_2_without_traceback():
+    proc = subprocess.run(
+        [sys.executable, "-m", "damjax", "pst", "--dx", "abc"], capture_output=True, text=True
+    )
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    assert "--dx" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_cli_json_summary_and_plot(tmp_path, capsys):
+    png = tmp_path / "pst.png"
+    rc = main(
+        [
+            "pst",
+            "--length",
+            "8",
+            "--dx",
+            "0.05",
+            "--duration",
+            "0.5",
+            "--steady-length",
+            "3",
+            "--strength-gradient",
+            "3000",
+            "--chunk-steps",
+            "200",
+            "--json",
+            "--quiet",
+            "--plot",
+            str(png),
+        ]
+    )
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in [
+        "lateral",
+        "arrested",
+        "arrest_position_m",
+        "arrest_length_m",
+        "critical_cut_length_m",
+        "max_crack_speed_over_cs",
+        "slab_fractures",
+        "tension_gradient_pa_per_m",
+        "tension_gradient_theory_pa_per_m",
+        "n_particles",
+        "n_steps",
+        "compile_time_s",
+        "wall_time_s",
+        "particle_steps_per_s",
+    ]:
+        assert key in out
+    assert out["slab_fractures"] == []
+    assert out["tension_gradient_pa_per_m"] is None
+    assert png.stat().st_size > 10_000
