@@ -74,14 +74,15 @@ def integrate(
     chunk_steps: int,
     snapshot: Snapshot | None = None,
     progress: bool = False,
-    callback: Callable[[int, State], None] | None = None,
+    callback: Callable[[int, State, list[Any], list[Any]], None] | None = None,
     start_chunk: int = 0,
 ) -> tuple[State, np.ndarray, list[Any], RunInfo]:
     """Run chunks ``start_chunk .. n_chunks-1`` on the host; stop at the first fault.
 
     Returns the final state, the crack tip after every step done (numpy), the snapshots
-    taken at the end of every chunk, and timings. ``callback(chunk, state)`` runs after
-    each chunk (checkpointing).
+    taken at the end of every chunk, and timings. ``callback(chunk, state, tips, snaps)``
+    runs after each chunk with the per-chunk tip arrays and snapshots so far
+    (checkpointing).
     """
     info = RunInfo()
     exe, info.compile_time_s = compile_chunk(model, state, chunk_steps)
@@ -109,7 +110,7 @@ def integrate(
             if bar is not None:
                 bar.update(chunk_steps)
             if callback is not None:
-                callback(c, state)
+                callback(c, state, tips, snaps)
             if int(state.fault) != 0:
                 info.stopped_early = True
                 break

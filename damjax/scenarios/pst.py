@@ -218,6 +218,11 @@ def simulate_pst(
     params: PSTParams | None = None,
     setup: PSTSetup | None = None,
     progress: bool = False,
+    *,
+    state: State | None = None,
+    start_chunk: int = 0,
+    history: tuple[list[np.ndarray], list[Any]] | None = None,
+    callback: Any = None,
 ) -> PSTResult:
     """Run a PST and return its diagnostics (see `PSTResult`, `damjax.diagnostics`).
 
@@ -225,21 +230,53 @@ def simulate_pst(
         params: physical parameters (default: the paper's elastic baseline).
         setup: numerics (default: 100 m, dx = 0.02 m, 3 s, free lateral condition).
         progress: show a tqdm progress bar.
+        state, start_chunk, history: resume from a saved state after ``start_chunk``
+            chunks, with the per-chunk tip arrays and snapshots recorded before it.
+        callback: ``callback(chunk, state, tips, snaps)`` after every chunk
+            (checkpointing; see `damjax.core.loop.integrate`).
     """
-    from damjax import diagnostics
-
     params = PSTParams() if params is None else params
     setup = PSTSetup() if setup is None else setup
     validate(params, setup)
     if setup.dtype == "float64":
         jax.config.update("jax_enable_x64", True)
     layout = make_layout(params, setup)
-    model, state = build(params, setup, layout)
+    model, state0 = build(params, setup, layout)
+    tips_before, snaps_before = history if history is not None else ([], [])
+
+    def _callback(c: int, st: State, tips: list[Any], snaps: list[Any]) -> None:
+        if callback is not None:
+            callback(c, st, tips_before + tips, snaps_before + snaps)
+
+    final, tips, snaps, info = integrate(
+        model,
+        state0 if state is None else state,
+        layout.n_chunks,
+        layout.chunk_steps,
+        snapshot=_snapshot,
+        progress=progress,
+        callback=_callback,
+        start_chunk=start_chunk,
+    )
+    tips = np.concatenate(tips_before + [tips]) if tips_before else tips
+    return finish(params, setup, layout, model, final, tips, snaps_before + snaps, info)
+
+
+def finish(
+    params: PSTParams,
+    setup: PSTSetup,
+    layout: Layout,
+    model: Model,
+    final: State,
+    tips: np.ndarray,
+    snaps: list[Any],
+    info: Any,
+) -> PSTResult:
+    """Assemble a `PSTResult` from a finished (or faulted) run."""
+    from damjax import diagnostics
+
     x_ref = np.asarray(model.saw_coord)
     tau_p = np.asarray(model.tau_peak)
-    final, tips, snaps, info = integrate(
-        model, state, layout.n_chunks, layout.chunk_steps, snapshot=_snapshot, progress=progress
-    )
     dt = float(model.dt)
     times = dt * np.arange(1, tips.size + 1)
     fault = None
@@ -252,7 +289,7 @@ def simulate_pst(
     snapshots = {k: np.stack([s[k] for s in snaps]) for k in snaps[0]} if snaps else {}
     sigma_xx = np.asarray(final.sigma[0])
     height = np.asarray(column_height(model, final))
-    if layout.dim == 2:  # report the strip's centre-line average per x
+    if layout.dim == 2:  # report the strip's average per x
         x_ref, sigma_xx, height = _width_average(x_ref, sigma_xx, height)
         tau_p = _width_average(np.asarray(model.saw_coord), tau_p)[1]
     result = PSTResult(
@@ -270,11 +307,10 @@ def simulate_pst(
         summary={},
         fault=fault,
     )
-    saw_stopped = not bool(final.saw_active)
     result.summary = diagnostics.summarize(
         result,
         saw_position=float(final.saw_pos),
-        saw_stopped=saw_stopped,
+        saw_stopped=not bool(final.saw_active),
         n_particles=layout.n_particles,
         n_steps=int(times.size),
         compile_time_s=info.compile_time_s,
