@@ -8,7 +8,7 @@ Public API (one screen):
 - `diagnostics`: crack tip, speed, arrest, tension gradient.
 """
 
-from damjax import diagnostics, theory
+from damjax import diagnostics, plot, theory
 from damjax.config import PSTParams, PSTSetup
 from damjax.scenarios.pst import PSTResult, simulate_pst
 
@@ -20,6 +20,7 @@ __all__ = [
     "PSTSetup",
     "__version__",
     "diagnostics",
+    "plot",
     "simulate_pst",
     "theory",
 ]

@@ -22,6 +22,7 @@ G_ACC = 9.81  # gravitational acceleration [m/s^2]
 
 LATERAL_CONDITIONS = ("free", "constrained")
 DTYPES = ("float32", "float64")
+P0_RULES = ("paper", "uniaxial")
 
 
 class PSTParams(eqx.Module):
@@ -46,6 +47,10 @@ class PSTParams(eqx.Module):
         tensile_strength: slab uniaxial tensile strength sigma_t [Pa]; inf: elastic slab.
         saw_speed: speed of the saw (self-propagating PST) or of the imposed cut
             (controlled run) [m/s].
+        mcc_m: slope M of the critical state line of the Modified Cam Clay slab [-].
+        mcc_beta: cohesion ratio beta of the MCC surface (tension/compression) [-].
+        mcc_xi: softening coefficient xi of p0 with volumetric plastic strain [-]
+            (SinhExpl law, `damjax.materials.mcc`); 0 is perfect plasticity.
     """
 
     slope_deg: Any = 35.0
@@ -62,6 +67,9 @@ class PSTParams(eqx.Module):
     softening: Any = 0.0
     tensile_strength: Any = math.inf
     saw_speed: Any = 6.0
+    mcc_m: Any = 0.3
+    mcc_beta: Any = 1.2
+    mcc_xi: Any = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,6 +93,8 @@ class PSTSetup:
             the step count is rounded up to a multiple of it, dt shrinks accordingly).
         dim: 1 for the width-uniform strip (default), 2 to run the 2D step on a strip.
         width: strip width for ``dim=2`` with free edges [m] (the paper's 0.3 m).
+        p0_rule: how p0 follows from the tensile strength: "paper" (Eq. 6 as printed;
+            uniaxial tension yields at ~0.62 sigma_t) or "uniaxial" (yields at sigma_t).
     """
 
     length: float = 100.0
@@ -98,6 +108,7 @@ class PSTSetup:
     chunk_steps: int = 1000
     dim: int = 1
     width: float = 0.3
+    p0_rule: str = "paper"
 
 
 # field name -> (CLI flag, check, description of the valid range)
@@ -124,6 +135,9 @@ PARAM_RULES: dict[str, tuple[Any, str]] = {
     "softening": (_nonneg, "[0, inf)"),
     "tensile_strength": (lambda v: v > 0, "(0, inf] Pa"),
     "saw_speed": (_pos, "(0, inf) m/s"),
+    "mcc_m": (_pos, "(0, inf)"),
+    "mcc_beta": (_pos, "(0, inf)"),
+    "mcc_xi": (_nonneg, "[0, inf)"),
 }
 
 SETUP_RULES: dict[str, tuple[Any, str]] = {
@@ -237,6 +251,8 @@ def setup_problems(setup: PSTSetup) -> list[str]:
         problems.append(
             _problem("lateral", setup.lateral, "{" + ", ".join(LATERAL_CONDITIONS) + "}")
         )
+    if setup.p0_rule not in P0_RULES:
+        problems.append(_problem("p0_rule", setup.p0_rule, "{" + ", ".join(P0_RULES) + "}"))
     if setup.dtype not in DTYPES:
         problems.append(_problem("dtype", setup.dtype, "{" + ", ".join(DTYPES) + "}"))
     if not isinstance(setup.controlled, bool):

@@ -66,6 +66,26 @@ def tension_gradient(x: np.ndarray, sigma_xx: np.ndarray, cut: float) -> float:
     return float(np.polyfit(x[sel], sigma_xx[sel], 1)[0])
 
 
+def slab_fractures(
+    x: np.ndarray, opening: np.ndarray, t_fracture: np.ndarray, threshold: float, gap: float
+) -> list[dict[str, float]]:
+    """Slab tensile fractures: connected bands where the tensile plastic strain exceeds
+    ``threshold``, bands closer than ``gap`` [m] merged; one entry per band with the
+    position of its largest opening and the time its first particle crossed the threshold.
+    """
+    order = np.argsort(x)
+    x, opening, t_fracture = x[order], opening[order], t_fracture[order]
+    idx = np.nonzero(opening >= threshold)[0]
+    if idx.size == 0:
+        return []
+    splits = np.nonzero(np.diff(x[idx]) > gap)[0] + 1
+    out = []
+    for band in np.split(idx, splits):
+        k = band[np.argmax(opening[band])]
+        out.append({"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band]))})
+    return sorted(out, key=lambda f: f["t_s"])
+
+
 def _none(v: float) -> float | None:
     return None if v is None or not math.isfinite(v) else float(v)
 
@@ -109,7 +129,7 @@ def summarize(
         "max_crack_speed_over_cs": max_speed / cs,
         "wave_speed_over_cs": float(theory.longitudinal_wave_speed(p, s.lateral)) / cs,
         "shear_wave_speed_m_per_s": cs,
-        "slab_fractures": [],
+        "slab_fractures": result.fractures,
         "tension_gradient_pa_per_m": kx,
         "tension_gradient_theory_pa_per_m": kx_th,
         "fault": result.fault,

@@ -11,6 +11,8 @@ from typing import Any
 
 import equinox as eqx
 
+FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture [-]
+
 # fault codes raised by the runtime guards (bit flags)
 FAULT_NAN = 1
 FAULT_EDGE = 2
@@ -45,6 +47,12 @@ class Model(eqx.Module):
     area0: Any  # reference column-base area per particle [m^2] (1D: per unit width)
     youngs_modulus: Any
     poisson: Any
+    # Modified Cam Clay slab (p0_init = inf: elastic slab)
+    plastic: bool = eqx.field(static=True)  # False: skip the return mapping entirely
+    p0_init: Any
+    mcc_m: Any
+    mcc_beta: Any
+    mcc_xi: Any
     # gravity [m/s^2]: slope-parallel components (dim, n) and the normal component (n,)
     g_tangent: Any
     g_normal: Any
@@ -83,6 +91,9 @@ class State(eqx.Module):
     C: Any  # (dim, dim, n) affine velocity (APIC/MLS) [1/s]
     eps: Any  # (3, n) in-plane small strain (xx, yy, xy) [-]
     sigma: Any  # (3, n) depth-averaged in-plane stress [Pa]
+    eps_p: Any  # (3, n) in-plane plastic strain [-]
+    opening: Any  # (n,) accumulated tensile plastic strain (fracture indicator) [-]
+    t_fracture: Any  # (n,) time opening first exceeded FRACTURE_STRAIN [s] (inf: never)
     u_max: Any  # (n,) maximum slip reached (damage history) [m]
     time: Any  # [s]
     saw_pos: Any  # position of the saw along saw_coord [m]

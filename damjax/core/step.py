@@ -24,8 +24,15 @@ from typing import Any
 import jax.numpy as jnp
 
 from damjax.core import transfer
-from damjax.core.state import FAULT_EDGE, FAULT_NAN, FAULT_THICKNESS, Model, State
-from damjax.materials import slab, weak_layer
+from damjax.core.state import (
+    FAULT_EDGE,
+    FAULT_NAN,
+    FAULT_THICKNESS,
+    FRACTURE_STRAIN,
+    Model,
+    State,
+)
+from damjax.materials import mcc, slab, weak_layer
 
 
 def stress_tensor(sigma: Any, dim: int) -> Any:
@@ -49,11 +56,45 @@ def broken_mask(model: Model, state: State) -> Any:
     return weak_layer.is_broken(state.u_max, model.u_res, cut)
 
 
-def constitutive(model: Model, eps: Any) -> tuple[Any, Any]:
-    """(eps, sigma) after the slab law; 1D strips get eps_yy from the lateral condition."""
-    if model.dim == 1:
-        eps = eps.at[1].set(slab.lateral_strain(eps[0], model.poisson, model.lateral))
-    return eps, slab.plane_stress(eps, model.youngs_modulus, model.poisson)
+def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, Any]:
+    """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening).
+
+    1D strips get eps_yy from the lateral condition: "constrained" keeps eps_yy = 0,
+    "free" keeps sigma_yy = 0 (uniaxial stress, exact uniaxial return mapping).
+    """
+    E, nu = model.youngs_modulus, model.poisson
+    eps_p = state.eps_p
+    zero = jnp.zeros_like(eps[0])
+    if model.dim == 1 and model.lateral == "free":
+        sig_tr = E * (eps[0] - eps_p[0])
+        if model.plastic:
+            p0 = _p0(model, state)
+            sxx, dxx, dyy = mcc.return_map_uniaxial(sig_tr, p0, model.mcc_m, model.mcc_beta, E)
+            eps_p = eps_p + jnp.stack([dxx, dyy, zero])
+            d_open = jnp.maximum(dxx, 0.0)
+        else:
+            sxx, d_open = sig_tr, zero
+        eps = jnp.stack([eps[0], -nu * sxx / E + eps_p[1], zero])
+        return eps, jnp.stack([sxx, zero, zero]), eps_p, d_open
+    if model.dim == 1:  # constrained: eps_yy = 0
+        eps = eps.at[1].set(0.0)
+    eps_e = eps - eps_p
+    if not model.plastic:
+        return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero
+    sigma, d_eps_p = mcc.return_map_plane(
+        eps_e, _p0(model, state), model.mcc_m, model.mcc_beta, E, nu
+    )
+    half = 0.5 * (d_eps_p[0] - d_eps_p[1])
+    d_open = jnp.maximum(
+        0.5 * (d_eps_p[0] + d_eps_p[1]) + jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30), 0.0
+    )
+    return eps, sigma, eps_p + d_eps_p, d_open
+
+
+def _p0(model: Model, state: State) -> Any:
+    """Current consolidation pressure (explicit softening with volumetric plastic strain)."""
+    bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
+    return mcc.softened_p0(model.p0_init, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk)
 
 
 def step(model: Model, state: State) -> State:
@@ -111,7 +152,15 @@ def step(model: Model, state: State) -> State:
         ]
     )
     u_new = state.u + dt * v_new
-    eps, sigma = constitutive(model, state.eps + strain_increment(C_new, dt, dim))
+    eps, sigma, eps_p, d_open = constitutive(
+        model, state, state.eps + strain_increment(C_new, dt, dim)
+    )
+    opening = state.opening + d_open
+    t_fracture = jnp.where(
+        (opening >= FRACTURE_STRAIN) & ~(state.opening >= FRACTURE_STRAIN),
+        state.time + dt,
+        state.t_fracture,
+    )
     slip = jnp.sqrt(jnp.sum(u_new * u_new, axis=0)) if dim > 1 else jnp.abs(u_new[0])
     u_max = jnp.maximum(state.u_max, slip)
 
@@ -146,6 +195,9 @@ def step(model: Model, state: State) -> State:
         C=C_new,
         eps=eps,
         sigma=sigma,
+        eps_p=eps_p,
+        opening=opening,
+        t_fracture=t_fracture,
         u_max=u_max,
         time=time,
         saw_pos=saw_pos,

@@ -35,5 +35,11 @@ def lateral_strain(eps_xx: Any, poisson: Any, lateral: str) -> Any:
 
 
 def area_ratio(eps: Any) -> Any:
-    """J = det(I + eps) of the in-plane (column-base) area change [-]; h = h0 / J."""
-    return (1.0 + eps[0]) * (1.0 + eps[1]) - eps[2] ** 2
+    """J = exp(eps_xx + eps_yy): in-plane (column-base) area ratio [-]; h = h0 / J.
+
+    The strain is the time integral of the rate of deformation, i.e. a logarithmic
+    strain (exactly so in 1D, and for rotation-free 2D motion), and det(exp(eps)) =
+    exp(tr eps). This stays positive inside localised plastic bands where the strain
+    reaches O(1), unlike det(I + eps).
+    """
+    return jnp.exp(eps[0] + eps[1])

@@ -25,11 +25,12 @@ import numpy as np
 from damjax import theory
 from damjax.config import G_ACC, PSTParams, PSTSetup, validate
 from damjax.core.loop import integrate, integrate_pure
-from damjax.core.state import FAULT_MESSAGES, Model, State
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State
 from damjax.core.step import column_height
-from damjax.materials import weak_layer
+from damjax.materials import mcc, weak_layer
 
 SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
+FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,6 +90,14 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
     return Layout(2, shape, periodic, pad, n_cells * ppc * n_y * ppc, n_chunks, chunk)
 
 
+def _is_plastic(params: PSTParams) -> bool:
+    """Static switch: run the return mapping unless every tensile strength is infinite."""
+    try:
+        return bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
+    except (TypeError, jax.errors.TracerArrayConversionError):
+        return True  # traced value: keep the plastic branch (inf still gives elastic)
+
+
 def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:
     """Model constants and the initial state (slab in equilibrium on the loaded layer)."""
     dtype = jnp.dtype(setup.dtype)
@@ -142,6 +151,13 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
+        plastic=_is_plastic(params),
+        p0_init=mcc.p0_from_tensile_strength(
+            f(params.tensile_strength), f(params.mcc_m), f(params.mcc_beta), setup.p0_rule
+        ),
+        mcc_m=f(params.mcc_m),
+        mcc_beta=f(params.mcc_beta),
+        mcc_xi=f(params.mcc_xi),
         g_tangent=g_t,
         g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
         stiffness=K,
@@ -161,6 +177,9 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         C=jnp.zeros((layout.dim, layout.dim, n), dtype),
         eps=zeros3,
         sigma=jnp.zeros((3, n), dtype),
+        eps_p=jnp.zeros((3, n), dtype),
+        opening=jnp.zeros((n,), dtype),
+        t_fracture=jnp.full((n,), jnp.inf, dtype),
         u_max=jnp.abs(u0[0]),
         time=f(0.0),
         saw_pos=f(0.0),
@@ -200,9 +219,11 @@ class PSTResult:
     slip: np.ndarray  # (n,) final slope-parallel displacement [m]
     u_max: np.ndarray  # (n,) maximum slip reached [m]
     tau_peak: np.ndarray  # (n,) weak-layer strength [Pa]
+    opening: np.ndarray  # (n,) accumulated tensile plastic strain [-]
     snapshots: dict[str, np.ndarray]  # fields at the end of every chunk
     summary: dict[str, Any]
     fault: str | None = None
+    fractures: list[dict[str, float]] = dataclasses.field(default_factory=list)
 
     @property
     def arrested(self) -> bool:
@@ -289,9 +310,14 @@ def finish(
     snapshots = {k: np.stack([s[k] for s in snaps]) for k in snaps[0]} if snaps else {}
     sigma_xx = np.asarray(final.sigma[0])
     height = np.asarray(column_height(model, final))
+    opening = np.asarray(final.opening)
+    fractures = diagnostics.slab_fractures(
+        x_ref, opening, np.asarray(final.t_fracture), FRACTURE_STRAIN, FRACTURE_GAP
+    )
     if layout.dim == 2:  # report the strip's average per x
-        x_ref, sigma_xx, height = _width_average(x_ref, sigma_xx, height)
-        tau_p = _width_average(np.asarray(model.saw_coord), tau_p)[1]
+        x_all = x_ref
+        x_ref, sigma_xx, height, opening = _width_average(x_all, sigma_xx, height, opening)
+        tau_p = _width_average(x_all, tau_p)[1]
     result = PSTResult(
         params=params,
         setup=setup,
@@ -303,9 +329,11 @@ def finish(
         slip=np.asarray(final.u[0]),
         u_max=np.asarray(final.u_max),
         tau_peak=tau_p,
+        opening=opening,
         snapshots=snapshots,
         summary={},
         fault=fault,
+        fractures=fractures,
     )
     result.summary = diagnostics.summarize(
         result,

@@ -1,0 +1,175 @@
+"""Modified Cam Clay (MCC) slab in plane stress (paper Eq. 5-6; Gaume et al. 2019).
+
+Yield function (paper Eq. 5), compression positive for p:
+
+    y(p, q) = q^2 (1 + 2 beta) + M^2 (p + beta p0) (p - p0)  <= 0
+
+Invariants of the depth-averaged *in-plane* stress (the vertical stress, ~0.5 kPa for
+the baseline, is not included: the paper derives Eq. 6 "considering the plane stress
+hypothesis"):
+
+    p = -(sigma_xx + sigma_yy) / 2,   q = sqrt(3/2 s:s),  s = sigma - (tr sigma / 2) I.
+
+Uniaxial tension sigma gives (p, q) = (-sigma/2, sqrt(3) sigma/2).
+
+p0 from the tensile strength sigma_t (`p0_rule`):
+
+- ``"paper"``: Eq. 6 exactly as printed, with p_t = sqrt(3) sigma_t / 2 and
+  q_t = -sigma_t / 2. A uniaxial tension test then yields at ~0.62 sigma_t
+  (3.7 kPa for sigma_t = 6 kPa).
+- ``"uniaxial"``: Eq. 6 with the uniaxial-tension invariants p_t = -sigma_t / 2,
+  q_t = sqrt(3) sigma_t / 2 (the printed pair swapped), so that a uniaxial tension test
+  yields at exactly sigma_t.
+
+Hardening/softening (`xi`): p0 = K sinh(-xi eps_v^p + asinh(p0_init / K)) with the
+in-plane volumetric plastic strain eps_v^p (dilation positive) and the in-plane bulk
+modulus K = E / (2 (1 - nu)) (explicit, as in the "SinhExpl" law of the MATTER MPM code);
+xi = 0 is perfect plasticity. Dilation softens the slab in tension.
+
+Return mapping: associative closest-point projection in (p, q), solved for the plastic
+multiplier with a safeguarded Newton iteration of fixed length (vmappable, NaN-free,
+differentiable). Width-uniform strips with free edges (sigma_yy = 0) use the exact
+uniaxial projection.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+
+P0_RULES = ("paper", "uniaxial")
+_NEWTON_ITERS = 8
+
+
+def p0_from_tensile_strength(sigma_t: Any, M: Any, beta: Any, rule: str = "paper") -> Any:
+    """Consolidation pressure p0 [Pa] from the tensile strength sigma_t [Pa] (Eq. 6)."""
+    finite = jnp.isfinite(sigma_t)
+    st = jnp.where(finite, sigma_t, 1.0)
+    if rule == "paper":
+        p_t, q_t = jnp.sqrt(3.0) * st / 2.0, -st / 2.0
+    elif rule == "uniaxial":
+        p_t, q_t = -st / 2.0, jnp.sqrt(3.0) * st / 2.0
+    else:
+        raise ValueError(f"p0_rule = {rule!r}: must be in {{paper, uniaxial}}")
+    p0 = -(1.0 - beta) * p_t / (2.0 * beta) + jnp.sqrt(
+        ((beta + 1.0) * p_t / (2.0 * beta)) ** 2 + (q_t / M) ** 2 * (1.0 + 2.0 * beta) / beta
+    )
+    return jnp.where(finite, p0, jnp.inf)
+
+
+def yield_function(p: Any, q: Any, p0: Any, M: Any, beta: Any) -> Any:
+    """y(p, q) [Pa^2] (paper Eq. 5); <= 0 inside the surface."""
+    return q**2 * (1.0 + 2.0 * beta) + M**2 * (p + beta * p0) * (p - p0)
+
+
+def invariants(sigma: Any) -> tuple[Any, Any]:
+    """(p, q) [Pa] of in-plane stress components (3, n) = (xx, yy, xy)."""
+    p = -0.5 * (sigma[0] + sigma[1])
+    half = 0.5 * (sigma[0] - sigma[1])
+    q = jnp.sqrt(1.5 * (2.0 * half**2 + 2.0 * sigma[2] ** 2))
+    return p, q
+
+
+def uniaxial_strengths(p0: Any, M: Any, beta: Any) -> tuple[Any, Any]:
+    """(tensile, compressive) uniaxial yield stresses [Pa], both positive, for p0."""
+    a = (3.0 * (1.0 + 2.0 * beta) + M**2) / 4.0
+    b = M**2 * p0 * (1.0 - beta) / 2.0
+    c = -(M**2) * beta * p0**2
+    disc = jnp.sqrt(b * b - 4.0 * a * c)
+    return (-b + disc) / (2.0 * a), (b + disc) / (2.0 * a)
+
+
+def softened_p0(p0_init: Any, eps_pv: Any, xi: Any, bulk: Any) -> Any:
+    """SinhExpl law: p0 = K sinh(-xi eps_v^p + asinh(p0_init / K)), floored at 1e-2 Pa."""
+    finite = jnp.isfinite(p0_init)
+    p0i = jnp.where(finite, p0_init, 1.0)
+    p0 = bulk * jnp.sinh(-xi * eps_pv + jnp.arcsinh(p0i / bulk))
+    return jnp.where(finite, jnp.maximum(p0, 1e-2), jnp.inf)
+
+
+def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any) -> Any:
+    """d eps_yy^p / d eps_xx^p of associative flow at the uniaxial state sigma_xx = sig."""
+    p = -0.5 * sig
+    y_p = M**2 * (2.0 * p + (beta - 1.0) * p0)
+    y_q = 2.0 * (1.0 + 2.0 * beta) * (jnp.sqrt(3.0) / 2.0) * jnp.abs(sig)
+    sgn = jnp.where(sig >= 0.0, 1.0, -1.0)
+    n_xx = -0.5 * y_p + jnp.sqrt(3.0) / 2.0 * sgn * y_q
+    n_yy = -0.5 * y_p - jnp.sqrt(3.0) / 2.0 * sgn * y_q
+    safe = jnp.abs(n_xx) > 0.0
+    return jnp.where(safe, n_yy / jnp.where(safe, n_xx, 1.0), -1.0)
+
+
+def return_map_uniaxial(
+    sig_trial: Any, p0: Any, M: Any, beta: Any, youngs_modulus: Any
+) -> tuple[Any, Any, Any]:
+    """Exact projection of a uniaxial trial stress (free strip, sigma_yy = 0).
+
+    Returns (sigma_xx, d eps_xx^p, d eps_yy^p).
+    """
+    finite = jnp.isfinite(p0)
+    p0s = jnp.where(finite, p0, 1.0)
+    st, sc = uniaxial_strengths(p0s, M, beta)
+    sig = jnp.where(finite, jnp.clip(sig_trial, -sc, st), sig_trial)
+    d_xx = (sig_trial - sig) / youngs_modulus
+    d_yy = d_xx * _flow_uniaxial(sig, p0s, M, beta)
+    return sig, d_xx, d_yy
+
+
+def return_map_plane(
+    eps_e: Any, p0: Any, M: Any, beta: Any, youngs_modulus: Any, poisson: Any
+) -> tuple[Any, Any]:
+    """Closest-point projection of a plane-stress elastic trial strain (3, n).
+
+    Returns (sigma (3, n), plastic strain increment (3, n)). Elastic states pass through
+    unchanged (bit for bit).
+    """
+    kappa = youngs_modulus / (2.0 * (1.0 - poisson))  # in-plane bulk modulus
+    G = youngs_modulus / (2.0 * (1.0 + poisson))
+    tr = eps_e[0] + eps_e[1]
+    dev = jnp.stack([eps_e[0] - 0.5 * tr, eps_e[1] - 0.5 * tr, eps_e[2]])
+    p_tr = -kappa * tr
+    s_tr = 2.0 * G * dev
+    q_tr = jnp.sqrt(1.5 * (s_tr[0] ** 2 + s_tr[1] ** 2 + 2.0 * s_tr[2] ** 2))
+    finite = jnp.isfinite(p0)
+    p0s = jnp.where(finite, p0, 1.0)
+    plastic = finite & (yield_function(p_tr, q_tr, p0s, M, beta) > 0.0)
+
+    # With the ellipse centre p_c = -(beta - 1) p0 / 2 and half-width w = (beta + 1) p0 / 2:
+    #   f(dl) = A / (1 + a dl)^2 + B / (1 + 2 b dl)^2 - C,
+    # A = (1 + 2 beta) q_tr^2, B = M^2 (p_tr - p_c)^2, C = M^2 w^2: convex and decreasing,
+    # so Newton started below the root converges monotonically (never overshoots).
+    a = 6.0 * G * (1.0 + 2.0 * beta)
+    b = kappa * M**2
+    p_c = -0.5 * (beta - 1.0) * p0s
+    A = (1.0 + 2.0 * beta) * q_tr**2
+    B = M**2 * (p_tr - p_c) ** 2
+    C = M**2 * (0.5 * (beta + 1.0) * p0s) ** 2
+    # each one-term root is a lower bound of the root
+    dl = jnp.maximum(
+        jnp.maximum((jnp.sqrt(A / C) - 1.0) / a, (jnp.sqrt(B / C) - 1.0) / (2.0 * b)), 0.0
+    )
+    for _ in range(_NEWTON_ITERS):
+        uq = 1.0 / (1.0 + a * dl)
+        up = 1.0 / (1.0 + 2.0 * b * dl)
+        f = A * uq**2 + B * up**2 - C
+        df = -2.0 * a * A * uq**3 - 4.0 * b * B * up**3
+        dl = dl - f / jnp.where(df < 0.0, df, -1.0)
+    dl = jnp.where(plastic, dl, 0.0)
+    q = q_tr / (1.0 + a * dl)
+    p = p_c + (p_tr - p_c) / (1.0 + 2.0 * b * dl)
+    scale = jnp.where(q_tr > 0.0, q / jnp.where(q_tr > 0.0, q_tr, 1.0), 0.0)
+    s = s_tr * scale
+    sigma_pl = jnp.stack([s[0] - p, s[1] - p, s[2]])
+    c = youngs_modulus / (1.0 - poisson**2)
+    sigma_el = jnp.stack(
+        [c * (eps_e[0] + poisson * eps_e[1]), c * (eps_e[1] + poisson * eps_e[0]),
+         c * (1.0 - poisson) * eps_e[2]]
+    )
+    sigma = jnp.where(plastic, sigma_pl, sigma_el)
+    # plastic strain = trial elastic strain - elastic strain of the returned stress
+    tr_new = -2.0 * p / (2.0 * kappa)
+    dev_new = s / (2.0 * G)
+    eps_e_new = jnp.stack([dev_new[0] + 0.5 * tr_new, dev_new[1] + 0.5 * tr_new, dev_new[2]])
+    d_eps_p = jnp.where(plastic, eps_e - eps_e_new, 0.0)
+    return sigma, d_eps_p
