@@ -51,6 +51,10 @@ class PSTParams(eqx.Module):
         mcc_beta: cohesion ratio beta of the MCC surface (tension/compression) [-].
         mcc_xi: softening coefficient xi of p0 with volumetric plastic strain [-]
             (SinhExpl law, `damjax.materials.mcc`); 0 is perfect plasticity.
+        strength_profile: optional weak-layer strength tau_p [Pa] at m >= 2 equally
+            spaced points spanning [0, length] of the PST, linearly interpolated at the
+            particles (a differentiable array field; see `damjax.fields`). None (default)
+            uses tau_peak, steady_length and strength_gradient.
     """
 
     slope_deg: Any = 35.0
@@ -70,6 +74,7 @@ class PSTParams(eqx.Module):
     mcc_m: Any = 0.3
     mcc_beta: Any = 1.2
     mcc_xi: Any = 0.0
+    strength_profile: Any = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -184,7 +189,17 @@ def _leaf_values(value: Any) -> list[float] | None:
 
 def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str]:
     """One line per invalid parameter value (empty when all are valid)."""
+    import numpy as np
+
     problems: list[str] = []
+    if params.strength_profile is not None:
+        prof = _leaf_values(params.strength_profile)
+        shape = np.shape(params.strength_profile)
+        if prof is None or len(shape) < 1 or shape[-1] < 2:
+            problems.append(_problem("strength_profile", "...", "arrays of >= 2 values [Pa]"))
+        elif any(math.isnan(v) or not v > 0 for v in prof):
+            bad = next(v for v in prof if math.isnan(v) or not v > 0)
+            problems.append(_problem("strength_profile", bad, "(0, inf] Pa (every value)"))
     for name, (ok, valid) in PARAM_RULES.items():
         values = _leaf_values(getattr(params, name))
         if values is None or not values:
@@ -206,10 +221,15 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
     import numpy as np
 
     if setup is not None and not setup.controlled:
-        weak = np.asarray(params.tau_peak, dtype=float) <= np.asarray(tau_g)
+        tau_min = (
+            np.min(np.asarray(params.strength_profile, dtype=float))
+            if params.strength_profile is not None
+            else np.asarray(params.tau_peak, dtype=float)
+        )
+        weak = tau_min <= np.asarray(tau_g)
         if np.any(weak):
             problems.append(
-                f"tau_peak (--tau-peak) = {float(np.min(params.tau_peak))!r}: must exceed the "
+                f"tau_peak (--tau-peak) = {float(np.min(tau_min))!r}: must exceed the "
                 f"gravitational shear stress tau_g = {float(np.max(tau_g)):.1f} Pa, otherwise "
                 "the weak layer has already failed under the slab's weight"
             )
@@ -221,7 +241,7 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
             )
     if setup is not None:
         lss = _leaf_values(params.steady_length) or [0.0]
-        if not setup.controlled and max(lss) >= setup.length:
+        if not setup.controlled and params.strength_profile is None and max(lss) >= setup.length:
             problems.append(
                 f"steady_length (--steady-length) = {max(lss)!r}: must be in "
                 f"[0, length = {setup.length!r}) m"

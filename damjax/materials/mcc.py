@@ -42,6 +42,12 @@ P0_RULES = ("paper", "uniaxial")
 _NEWTON_ITERS = 8
 
 
+def _sqrt(x: Any) -> Any:
+    """sqrt with a finite gradient at 0 (the double-where idiom)."""
+    pos = x > 0.0
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1.0)), 0.0)
+
+
 def p0_from_tensile_strength(sigma_t: Any, M: Any, beta: Any, rule: str = "paper") -> Any:
     """Consolidation pressure p0 [Pa] from the tensile strength sigma_t [Pa] (Eq. 6)."""
     finite = jnp.isfinite(sigma_t)
@@ -67,7 +73,7 @@ def invariants(sigma: Any) -> tuple[Any, Any]:
     """(p, q) [Pa] of in-plane stress components (3, n) = (xx, yy, xy)."""
     p = -0.5 * (sigma[0] + sigma[1])
     half = 0.5 * (sigma[0] - sigma[1])
-    q = jnp.sqrt(1.5 * (2.0 * half**2 + 2.0 * sigma[2] ** 2))
+    q = _sqrt(1.5 * (2.0 * half**2 + 2.0 * sigma[2] ** 2))
     return p, q
 
 
@@ -130,7 +136,7 @@ def return_map_plane(
     dev = jnp.stack([eps_e[0] - 0.5 * tr, eps_e[1] - 0.5 * tr, eps_e[2]])
     p_tr = -kappa * tr
     s_tr = 2.0 * G * dev
-    q_tr = jnp.sqrt(1.5 * (s_tr[0] ** 2 + s_tr[1] ** 2 + 2.0 * s_tr[2] ** 2))
+    q_tr = _sqrt(1.5 * (s_tr[0] ** 2 + s_tr[1] ** 2 + 2.0 * s_tr[2] ** 2))
     finite = jnp.isfinite(p0)
     p0s = jnp.where(finite, p0, 1.0)
     plastic = finite & (yield_function(p_tr, q_tr, p0s, M, beta) > 0.0)
@@ -147,14 +153,14 @@ def return_map_plane(
     C = M**2 * (0.5 * (beta + 1.0) * p0s) ** 2
     # each one-term root is a lower bound of the root
     dl = jnp.maximum(
-        jnp.maximum((jnp.sqrt(A / C) - 1.0) / a, (jnp.sqrt(B / C) - 1.0) / (2.0 * b)), 0.0
+        jnp.maximum((_sqrt(A / C) - 1.0) / a, (_sqrt(B / C) - 1.0) / (2.0 * b)), 0.0
     )
     for _ in range(_NEWTON_ITERS):
         uq = 1.0 / (1.0 + a * dl)
         up = 1.0 / (1.0 + 2.0 * b * dl)
         f = A * uq**2 + B * up**2 - C
         df = -2.0 * a * A * uq**3 - 4.0 * b * B * up**3
-        dl = dl - f / jnp.where(df < 0.0, df, -1.0)
+        dl = jnp.maximum(dl - f / jnp.where(df < 0.0, df, -1.0), 0.0)
     dl = jnp.where(plastic, dl, 0.0)
     q = q_tr / (1.0 + a * dl)
     p = p_c + (p_tr - p_c) / (1.0 + 2.0 * b * dl)

@@ -129,6 +129,10 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     x_ref_j = jnp.asarray(x_ref, dtype)
     if setup.controlled:
         tau_p = jnp.full((n,), jnp.inf, dtype)
+    elif params.strength_profile is not None:
+        prof = jnp.asarray(params.strength_profile, dtype)
+        xs = jnp.linspace(0.0, setup.length, prof.shape[-1], dtype=dtype)
+        tau_p = jnp.interp(x_ref_j, xs, prof)
     else:
         tau_p = weak_layer.strength_profile(
             x_ref_j, f(params.tau_peak), f(params.steady_length), f(params.strength_gradient)

@@ -1,0 +1,145 @@
+"""Modified Cam Clay slab: surface, return mapping, p0 rules, robustness, fracture bands."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from damjax import diagnostics
+from damjax.materials import mcc
+
+M, BETA, E, NU = 0.3, 1.2, 4e6, 0.3
+
+
+@pytest.mark.parametrize("rule,expected", [("uniaxial", 6000.0), ("paper", 3704.6)])
+def test_uniaxial_tension_yields_where_the_p0_rule_puts_it(rule, expected):
+    p0 = mcc.p0_from_tensile_strength(6000.0, M, BETA, rule)
+    st_, sc_ = mcc.uniaxial_strengths(p0, M, BETA)
+    assert float(st_) == pytest.approx(expected, rel=1e-3)
+    # the yield function vanishes at uniaxial tension and compression
+    for sig in (float(st_), -float(sc_)):
+        p, q = -sig / 2, np.sqrt(3) / 2 * abs(sig)
+        assert abs(float(mcc.yield_function(p, q, p0, M, BETA))) < 1e-6 * float(p0) ** 2
+    # a uniaxial return mapping caps the stress there
+    sig, dxx, dyy = mcc.return_map_uniaxial(jnp.asarray([2e4, -2e4, 100.0]), p0, M, BETA, E)
+    np.testing.assert_allclose(np.asarray(sig), [float(st_), -float(sc_), 100.0], rtol=1e-5)
+    assert float(dxx[2]) == 0.0 and float(dyy[2]) == 0.0
+    # associative flow at uniaxial tension is nearly isochoric in the plane
+    assert float(dyy[0] / dxx[0]) == pytest.approx(-1.0, abs=0.01)
+
+
+def test_compression_strength_from_p0_and_beta():
+    p0 = 20000.0
+    _, sc = mcc.uniaxial_strengths(p0, M, BETA)
+    # solve y(sigma/2, sqrt(3)/2 sigma) = 0 on the compression side by bisection
+    lo, hi = 0.0, 1e6
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        y = float(mcc.yield_function(mid / 2, np.sqrt(3) / 2 * mid, p0, M, BETA))
+        lo, hi = (mid, hi) if y < 0 else (lo, mid)
+    assert float(sc) == pytest.approx(lo, rel=1e-6)
+
+
+def _plane_stress(eps):
+    c = E / (1 - NU**2)
+    return np.stack([c * (eps[0] + NU * eps[1]), c * (eps[1] + NU * eps[0]), c * (1 - NU) * eps[2]])
+
+
+def test_states_inside_are_untouched_and_returned_states_lie_on_the_surface():
+    rng = np.random.default_rng(1)
+    p0 = float(mcc.p0_from_tensile_strength(6000.0, M, BETA, "uniaxial"))
+    eps = rng.normal(0.0, 2e-3, (3, 4000))
+    sigma, dep = mcc.return_map_plane(jnp.asarray(eps), p0, M, BETA, E, NU)
+    sigma, dep = np.asarray(sigma), np.asarray(dep)
+    from damjax.materials.slab import plane_stress
+
+    trial = np.asarray(plane_stress(jnp.asarray(eps), E, NU))
+    p_tr, q_tr = mcc.invariants(jnp.asarray(trial))
+    inside = np.asarray(mcc.yield_function(p_tr, q_tr, p0, M, BETA)) <= 0
+    assert inside.sum() > 100 and (~inside).sum() > 100
+    np.testing.assert_array_equal(sigma[:, inside], trial[:, inside])
+    np.testing.assert_array_equal(dep[:, inside], 0.0)
+    p, q = mcc.invariants(jnp.asarray(sigma[:, ~inside]))
+    y = np.asarray(mcc.yield_function(p, q, p0, M, BETA))
+    assert np.max(np.abs(y)) < 1e-6 * p0**2
+    # stress = elastic law of the remaining elastic strain
+    np.testing.assert_allclose(_plane_stress(eps - dep)[:, ~inside], sigma[:, ~inside],
+                               rtol=1e-5, atol=1e-5 * p0)
+
+
+def test_infinite_tensile_strength_is_exactly_elastic():
+    rng = np.random.default_rng(2)
+    eps = jnp.asarray(rng.normal(0.0, 1e-2, (3, 500)))
+    p0 = mcc.p0_from_tensile_strength(jnp.inf, M, BETA, "paper")
+    sigma, dep = mcc.return_map_plane(eps, p0, M, BETA, E, NU)
+    np.testing.assert_array_equal(np.asarray(dep), 0.0)
+    np.testing.assert_allclose(np.asarray(sigma), _plane_stress(np.asarray(eps)), rtol=1e-12)
+    sig, dxx, _ = mcc.return_map_uniaxial(eps[0] * E, p0, M, BETA, E)
+    np.testing.assert_array_equal(np.asarray(sig), np.asarray(eps[0] * E))
+
+
+def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
+    import dataclasses
+
+    from damjax import PSTParams, PSTSetup
+    from damjax.scenarios import pst
+
+    p = PSTParams(steady_length=5.0, strength_gradient=3000.0)
+    s = PSTSetup(length=10.0, dx=0.05, duration=0.3, chunk_steps=100)
+    lay = pst.make_layout(p, s)
+    m_el, st0 = pst.build(p, s, lay)
+    m_pl = dataclasses.replace(m_el, plastic=True)  # run the return mapping with p0 = inf
+    run = jax.jit(lambda m, x: pst.integrate_pure(m, x, lay.n_chunks, lay.chunk_steps))
+    f_el, tips_el = run(m_el, st0)
+    f_pl, tips_pl = run(m_pl, st0)
+    np.testing.assert_array_equal(np.asarray(tips_el), np.asarray(tips_pl))
+    np.testing.assert_allclose(np.asarray(f_el.sigma), np.asarray(f_pl.sigma), rtol=1e-5,
+                               atol=1e-3)
+
+
+finite = st.floats(-0.5, 0.5, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(finite, min_size=3, max_size=3), st.sampled_from([2000.0, 6000.0, np.inf]),
+       st.sampled_from(["paper", "uniaxial"]))
+def test_return_mapping_never_produces_nan(e, sigma_t, rule):
+    eps = jnp.asarray(e, jnp.float32)[:, None] * jnp.asarray([1.0, 0.3, 1e-3])[None, :]
+
+    def f(sigma_t_, eps_):
+        p0 = mcc.p0_from_tensile_strength(sigma_t_, M, BETA, rule)
+        sig, dep = mcc.return_map_plane(eps_, p0, M, BETA, E, NU)
+        sx, _, _ = mcc.return_map_uniaxial(E * eps_[0], p0, M, BETA, E)
+        return jnp.sum(sig) + jnp.sum(sx) + jnp.sum(dep)
+
+    val = f(jnp.float32(sigma_t), eps)
+    g_st, g_eps = jax.grad(f, argnums=(0, 1))(jnp.float32(sigma_t), eps)
+    assert np.isfinite(float(val))
+    assert np.isfinite(float(g_st)) and np.all(np.isfinite(np.asarray(g_eps)))
+
+
+def test_gradient_is_finite_at_the_elastic_plastic_switch():
+    p0 = mcc.p0_from_tensile_strength(6000.0, M, BETA, "uniaxial")
+    st_, _ = mcc.uniaxial_strengths(p0, M, BETA)
+
+    def f(s_t, sig):
+        p0_ = mcc.p0_from_tensile_strength(s_t, M, BETA, "uniaxial")
+        return mcc.return_map_uniaxial(sig, p0_, M, BETA, E)[0]
+
+    g = jax.grad(f, argnums=(0, 1))(6000.0, st_)
+    assert all(np.isfinite(float(x)) for x in g)
+
+
+def test_one_band_is_one_fracture():
+    x = np.linspace(0, 50, 5001)
+    opening = np.zeros_like(x)
+    opening[(x > 20) & (x < 20.3)] = 0.05  # one localised band, several particles wide
+    opening[(x > 20.5) & (x < 20.6)] = 0.02  # a neighbouring sliver of the same band
+    opening[(x > 35) & (x < 35.1)] = 0.5
+    t = np.where(opening > 0, 0.4, np.inf)
+    t[x > 30] = 0.7
+    fr = diagnostics.slab_fractures(x, opening, t, threshold=0.01, gap=1.0)
+    assert [round(f["x_m"]) for f in fr] == [20, 35]
+    assert [f["t_s"] for f in fr] == [0.4, 0.7]
