@@ -4,13 +4,16 @@ Public API (one screen):
 
 - `PSTParams`, `PSTSetup`: physical parameters (differentiable) and numerics (static);
 - `simulate_pst`: run a propagation saw test, returns a `PSTResult`;
+- `sweep`: a batch of PSTs as one vmapped (sharded) computation;
+- `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX);
 - `theory`: closed forms of the paper (tau_g, k_f, k_x, Lambda, ...);
 - `diagnostics`: crack tip, speed, arrest, tension gradient.
 """
 
 from damjax import diagnostics, plot, theory
 from damjax.config import PSTParams, PSTSetup
-from damjax.scenarios.pst import PSTResult, simulate_pst
+from damjax.scenarios.pst import PSTResult, arrest_position_smooth, simulate_pst
+from damjax.sweep import sweep
 
 __version__ = "0.1.0"
 
@@ -19,8 +22,10 @@ __all__ = [
     "PSTResult",
     "PSTSetup",
     "__version__",
+    "arrest_position_smooth",
     "diagnostics",
     "plot",
     "simulate_pst",
+    "sweep",
     "theory",
 ]

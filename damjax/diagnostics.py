@@ -14,7 +14,16 @@ Definitions (all event-based, computed on the host from the tip history):
   cut length at the end of the run.
 
 These are discrete events: they are piecewise constant in the parameters and carry no
-useful gradient.
+useful gradient. What is differentiated instead is `smooth_arrest_position`: the
+integral along x of a smooth weak-layer damage indicator at the end of the run,
+
+    L_smooth = sum_p  s((u_max,p / u_r,p - (1 - w)) / w)  Delta x_p,
+
+with s the C1 smoothstep (0 below, 1 above), w = `SMOOTH_WIDTH` = 0.1 (damage ramps
+from 0 to 1 as the maximum slip goes from 0.9 u_r to u_r), Delta x_p the particle
+spacing; sawn particles count as fully damaged. It equals the length of weak layer that
+lost its cohesion, so it tracks the final tip (and L_ca when the crack arrested), while
+varying continuously with the slips of the particles around the tip.
 """
 
 from __future__ import annotations
@@ -27,6 +36,7 @@ import numpy as np
 from damjax import theory
 
 SPEED_WINDOW = 0.02  # [s]
+SMOOTH_WIDTH = 0.1  # relative width of the damage ramp of the smooth arrest position
 ARREST_QUIET = 0.3  # [s]
 ARREST_MARGIN = 2.0  # [m] below the upper end
 
@@ -84,6 +94,35 @@ def slab_fractures(
         k = band[np.argmax(opening[band])]
         out.append({"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band]))})
     return sorted(out, key=lambda f: f["t_s"])
+
+
+def smoothstep(z: Any) -> Any:
+    """C1 ramp: 0 for z <= 0, 3 z^2 - 2 z^3 on [0, 1], 1 for z >= 1."""
+    import jax.numpy as jnp
+
+    z = jnp.clip(z, 0.0, 1.0)
+    return z * z * (3.0 - 2.0 * z)
+
+
+def smooth_arrest_position(model: Any, state: Any) -> Any:
+    """Differentiable surrogate of the arrest position [m] (JAX; see the module doc).
+
+    Works on the model and final state of a 1D run; in 2D it is the damaged area
+    divided by the strip width.
+    """
+    import jax.numpy as jnp
+
+    finite = jnp.isfinite(model.u_res)
+    u_r = jnp.where(finite, model.u_res, 1.0)
+    z = (state.u_max / u_r - (1.0 - SMOOTH_WIDTH)) / SMOOTH_WIDTH
+    damage = jnp.where(finite, smoothstep(z), 0.0)
+    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
+    damage = jnp.maximum(damage, cut)
+    area = jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
+    if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
+        length = jnp.max(model.saw_coord) + jnp.min(model.saw_coord)
+        area = area / (model.saw_coord.size * model.area0 / length)
+    return area
 
 
 def _none(v: float) -> float | None:

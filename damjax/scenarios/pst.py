@@ -235,8 +235,15 @@ class PSTResult:
 
     @property
     def arrest_position(self) -> float:
+        """Event-based L_ca [m]; NaN when the crack did not arrest (not differentiable)."""
         v = self.summary["arrest_position_m"]
         return math.nan if v is None else float(v)
+
+    @property
+    def arrest_position_smooth(self) -> float:
+        """Smooth surrogate of L_ca [m] (`damjax.diagnostics.smooth_arrest_position`);
+        `damjax.arrest_position_smooth` is its differentiable JAX counterpart."""
+        return float(self.summary["arrest_position_smooth_m"])
 
 
 def simulate_pst(
@@ -339,6 +346,7 @@ def finish(
         fault=fault,
         fractures=fractures,
     )
+    smooth = float(diagnostics.smooth_arrest_position(model, final))
     result.summary = diagnostics.summarize(
         result,
         saw_position=float(final.saw_pos),
@@ -348,6 +356,7 @@ def finish(
         compile_time_s=info.compile_time_s,
         wall_time_s=info.wall_time_s,
     )
+    result.summary["arrest_position_smooth_m"] = smooth
     return result
 
 
@@ -360,7 +369,32 @@ def _width_average(x: np.ndarray, *fields: np.ndarray) -> tuple[np.ndarray, ...]
 
 
 def run_pure(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State, Any]:
-    """Traceable full run (for grad / vmap): model, final state and tip per step."""
+    """Traceable full run (for grad / vmap): model, final state and tip per step.
+
+    Reverse mode is checkpointed per chunk (`damjax.core.loop.integrate_pure`).
+    """
     model, state = build(params, setup, layout)
     final, tips = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps)
     return model, final, tips
+
+
+def arrest_position_smooth(
+    params: PSTParams, setup: PSTSetup, layout: Layout | None = None
+) -> Any:
+    """Differentiable smooth arrest position [m] of a PST (a JAX scalar).
+
+    ``jax.grad(arrest_position_smooth)(params, setup)`` gives its gradient with respect
+    to every field of `PSTParams`. Pass ``layout`` (from `make_layout` on concrete
+    parameters) when calling under `jax.jit`/`jax.vmap` with traced parameters.
+    """
+    if layout is None:
+        validate(params, setup)
+        layout = make_layout(params, setup)
+    model, final, _ = run_pure(params, setup, layout)
+    return diagnostics_smooth(model, final)
+
+
+def diagnostics_smooth(model: Model, final: State) -> Any:
+    from damjax.diagnostics import smooth_arrest_position
+
+    return smooth_arrest_position(model, final)
