@@ -1,12 +1,8 @@
 """Shared fixtures: small PST setups that run in seconds on 2 CPU cores."""
 
-import os
+import pytest
 
-os.environ.setdefault("XLA_FLAGS", "--xla_force_host_platform_device_count=4")
-
-import pytest  # noqa: E402
-
-from damjax import PSTParams, PSTSetup  # noqa: E402
+from damjax import PSTParams, PSTSetup
 
 
 @pytest.fixture
