@@ -133,6 +133,41 @@ def pst_elastic_targets() -> None:
             emit(**dict(row, softening=0.0, youngs_modulus=E))
 
 
+@case
+def pst_grad() -> None:
+    """Gradient of the smooth arrest position vs the forward run, full baseline PST."""
+    import jax
+
+    from damjax import PSTParams, PSTSetup
+    from damjax.scenarios import pst
+
+    params, setup = PSTParams(), PSTSetup()
+    layout = pst.make_layout(params, setup)
+    fwd = jax.jit(lambda q: pst.arrest_position_smooth(q, setup, layout))
+    grad = jax.jit(jax.value_and_grad(lambda q: pst.arrest_position_smooth(q, setup, layout)))
+    t0 = time.perf_counter()
+    fwd_c = fwd.lower(params).compile()
+    t_cf = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    grad_c = grad.lower(params).compile()
+    t_cg = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    value = float(fwd_c(params))
+    t_f = time.perf_counter() - t0
+    rss_f = peak_rss_mb()
+    t0 = time.perf_counter()
+    v, g = grad_c(params)
+    jax.block_until_ready(g)
+    t_g = time.perf_counter() - t0
+    emit(case="pst_grad", n_particles=layout.n_particles, n_steps=layout.n_steps,
+         dtype=setup.dtype, compile_time_s=round(t_cf, 2), grad_compile_time_s=round(t_cg, 2),
+         wall_time_s=round(t_f, 3), grad_wall_time_s=round(t_g, 3),
+         grad_over_forward=round(t_g / t_f, 2),
+         particle_steps_per_s=round(layout.n_particles * layout.n_steps / t_f),
+         forward_peak_rss_mb=round(rss_f, 1), arrest_position_smooth_m=value,
+         d_arrest_d_theta=float(g.strength_gradient), d_arrest_d_delta=float(g.softening))
+
+
 def _run(name: str) -> None:
     t0 = time.perf_counter()
     CASES[name]()

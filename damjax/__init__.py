@@ -6,11 +6,12 @@ Public API (one screen):
 - `simulate_pst`: run a propagation saw test, returns a `PSTResult`;
 - `sweep`: a batch of PSTs as one vmapped (sharded) computation;
 - `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX);
+- `calibrate`: scaling-law fits and parameter inversion through the solver (optax);
 - `theory`: closed forms of the paper (tau_g, k_f, k_x, Lambda, ...);
 - `diagnostics`: crack tip, speed, arrest, tension gradient.
 """
 
-from damjax import diagnostics, plot, theory
+from damjax import calibrate, diagnostics, plot, theory
 from damjax.config import PSTParams, PSTSetup
 from damjax.scenarios.pst import PSTResult, arrest_position_smooth, simulate_pst
 from damjax.sweep import sweep
@@ -23,6 +24,7 @@ __all__ = [
     "PSTSetup",
     "__version__",
     "arrest_position_smooth",
+    "calibrate",
     "diagnostics",
     "plot",
     "simulate_pst",

@@ -123,13 +123,29 @@ def integrate(
     return state, tip_all, snaps, info
 
 
+def _block(n: int, target: int = 50) -> int:
+    """Largest divisor of n that is at most target."""
+    return max(d for d in range(1, min(n, target) + 1) if n % d == 0)
+
+
 def integrate_pure(
     model: Model, state: State, n_chunks: int, chunk_steps: int, checkpoint: bool = True
 ) -> tuple[State, Any]:
-    """Traceable integration: returns the final state and the tip per step (n_steps,)."""
+    """Traceable integration: returns the final state and the tip per step (n_steps,).
+
+    With ``checkpoint`` (two-level blocking), reverse mode stores one state per chunk and
+    one per block of <= 50 steps inside the chunk being differentiated, and recomputes
+    the rest: memory O(n_chunks + chunk_steps / block + block) states.
+    """
+    block = _block(chunk_steps)
+
+    def run_block(s: State, _: Any) -> tuple[State, Any]:
+        return run_chunk(model, s, block)
 
     def chunk(s: State, _: Any) -> tuple[State, Any]:
-        return run_chunk(model, s, chunk_steps)
+        body = jax.checkpoint(run_block, prevent_cse=False) if checkpoint else run_block
+        s, tips = jax.lax.scan(body, s, None, length=chunk_steps // block)
+        return s, jnp.reshape(tips, (-1,))
 
     if checkpoint:
         chunk = jax.checkpoint(chunk, prevent_cse=False)

@@ -1,0 +1,41 @@
+"""Scaling-law fits and inversion through the solver."""
+
+import numpy as np
+import pytest
+
+from damjax import PSTParams, PSTSetup, calibrate
+
+
+def test_power_law_fit_recovers_known_exponent_with_interval():
+    rng = np.random.default_rng(0)
+    x = np.exp(rng.uniform(-2, 2, 64))
+    y = 0.8 * x**1.5 * np.exp(rng.normal(0, 0.05, x.size))
+    fit = calibrate.fit_power_law(x, y)
+    assert fit.exponent == pytest.approx(1.5, abs=0.03)
+    assert fit.prefactor == pytest.approx(0.8, rel=0.05)
+    assert fit.exponent_ci95[0] < 1.5 < fit.exponent_ci95[1]
+    assert fit.r2_log > 0.99
+    # agrees with the closed-form least squares
+    b, a = np.polyfit(np.log(x), np.log(y), 1)
+    assert fit.exponent == pytest.approx(b, abs=1e-3)
+
+
+def test_power_law_fit_rejects_bad_data():
+    with pytest.raises(ValueError, match="positive"):
+        calibrate.fit_power_law([1.0, 2.0, -3.0], [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="at least 3"):
+        calibrate.fit_power_law([1.0, 2.0], [1.0, 2.0])
+
+
+def test_inversion_recovers_a_known_strength_gradient():
+    setup = PSTSetup(length=10.0, dx=0.05, duration=0.5, chunk_steps=250)
+    truth = PSTParams(steady_length=4.0, strength_gradient=800.0, softening=1.0)
+    from damjax.scenarios import pst
+
+    observed = float(pst.arrest_position_smooth(truth, setup))
+    start = PSTParams(steady_length=4.0, strength_gradient=1200.0, softening=1.0)
+    inv = calibrate.invert([({}, observed)], start, setup, ["strength_gradient"],
+                           noise_std=0.05, steps=25, learning_rate=0.08)
+    assert inv.estimates["strength_gradient"] == pytest.approx(800.0, rel=0.05)
+    assert inv.history[-1] < inv.history[0]
+    assert np.isfinite(inv.condition_number)
