@@ -33,6 +33,8 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     if np.all(np.isfinite(result.tau_peak)):
         ax.plot(result.x, result.tau_peak, "k-", label=r"strength $\tau_p$")
         ax.plot(result.x, result.tau_peak - tau_r, "k:", label=r"cohesion $\tau_p-\tau_r$")
+    ax.plot(result.x, result.wl_shear, color="tab:green", lw=0.8,
+            label=r"weak-layer shear $\tau_{xz}$ (final)")
     ax.axhline(float(theory.gravity_shear(p)), color="tab:blue", ls="--", label=r"$\tau_g$")
     ax.set_ylabel("shear stress [Pa]")
     ax.legend(loc="upper left", fontsize=8)
@@ -52,7 +54,13 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     ax.plot(result.x, result.sigma_xx, "k-", lw=1.2, label="final")
     st = float(p.tensile_strength)
     if np.isfinite(st):
+        from damjax.materials import mcc
+
+        p0 = mcc.p0_from_tensile_strength(st, float(p.mcc_m), float(p.mcc_beta), s.p0_rule)
+        st_eff = float(mcc.uniaxial_strengths(p0, float(p.mcc_m), float(p.mcc_beta))[0])
         ax.axhline(st, color="tab:red", ls="--", label=r"$\sigma_t$")
+        if abs(st_eff - st) > 1e-3 * st:
+            ax.axhline(st_eff, color="tab:red", ls=":", label="uniaxial yield")
     ax.set_ylabel(r"slab tension $\sigma_{xx}$ [Pa]")
     ax.legend(loc="upper left", fontsize=7, ncol=2)
 

@@ -195,6 +195,20 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     return model, state
 
 
+def weak_layer_shear(model: Model, state: State) -> Any:
+    """Weak-layer shear stress magnitude [Pa]: cohesive traction where intact or
+    softening, the friction cap tau_r where broken (an upper bound when at rest)."""
+    from damjax.core.step import broken_mask, residual_shear
+
+    broken = broken_mask(model, state)
+    tau_r = residual_shear(model, state)
+    k = weak_layer.cohesive_factor(
+        state.u_max, model.tau_peak, tau_r, model.stiffness, model.softening, broken
+    )
+    slip = jnp.sqrt(jnp.sum(state.u * state.u, axis=0))
+    return jnp.where(broken, tau_r, k * slip)
+
+
 def _snapshot(model: Model, state: State) -> dict[str, Any]:
     return {
         "time": state.time,
@@ -224,6 +238,7 @@ class PSTResult:
     u_max: np.ndarray  # (n,) maximum slip reached [m]
     tau_peak: np.ndarray  # (n,) weak-layer strength [Pa]
     opening: np.ndarray  # (n,) accumulated tensile plastic strain [-]
+    wl_shear: np.ndarray  # (n,) final weak-layer shear stress magnitude [Pa]
     snapshots: dict[str, np.ndarray]  # fields at the end of every chunk
     summary: dict[str, Any]
     fault: str | None = None
@@ -322,12 +337,15 @@ def finish(
     sigma_xx = np.asarray(final.sigma[0])
     height = np.asarray(column_height(model, final))
     opening = np.asarray(final.opening)
+    wl_shear = np.asarray(weak_layer_shear(model, final))
     fractures = diagnostics.slab_fractures(
         x_ref, opening, np.asarray(final.t_fracture), FRACTURE_STRAIN, FRACTURE_GAP
     )
     if layout.dim == 2:  # report the strip's average per x
         x_all = x_ref
-        x_ref, sigma_xx, height, opening = _width_average(x_all, sigma_xx, height, opening)
+        x_ref, sigma_xx, height, opening, wl_shear = _width_average(
+            x_all, sigma_xx, height, opening, wl_shear
+        )
         tau_p = _width_average(x_all, tau_p)[1]
     result = PSTResult(
         params=params,
@@ -341,6 +359,7 @@ def finish(
         u_max=np.asarray(final.u_max),
         tau_peak=tau_p,
         opening=opening,
+        wl_shear=wl_shear,
         snapshots=snapshots,
         summary={},
         fault=fault,
