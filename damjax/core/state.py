@@ -94,6 +94,7 @@ class State(eqx.Module):
     eps_p: Any  # (3, n) in-plane plastic strain [-]
     opening: Any  # (n,) accumulated tensile plastic strain (fracture indicator) [-]
     t_fracture: Any  # (n,) time opening first exceeded FRACTURE_STRAIN [s] (inf: never)
+    t_broken: Any  # (n,) time the weak layer under the particle lost all cohesion [s]
     u_max: Any  # (n,) maximum slip reached (damage history) [m]
     time: Any  # [s]
     saw_pos: Any  # position of the saw along saw_coord [m]

@@ -168,6 +168,7 @@ def step(model: Model, state: State) -> State:
     time = state.time + dt
     saw_pos = jnp.where(state.saw_active, model.saw_speed * time, state.saw_pos)
     broken_new = weak_layer.is_broken(u_max, model.u_res, model.saw_coord < saw_pos)
+    t_broken = jnp.where(broken_new & jnp.isinf(state.t_broken), time, state.t_broken)
     tip = jnp.max(jnp.where(broken_new, model.saw_coord, -jnp.inf))
     tip = jnp.maximum(tip, state.tip)
     saw_active = state.saw_active
@@ -198,6 +199,7 @@ def step(model: Model, state: State) -> State:
         eps_p=eps_p,
         opening=opening,
         t_fracture=t_fracture,
+        t_broken=t_broken,
         u_max=u_max,
         time=time,
         saw_pos=saw_pos,

@@ -184,6 +184,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         eps_p=jnp.zeros((3, n), dtype),
         opening=jnp.zeros((n,), dtype),
         t_fracture=jnp.full((n,), jnp.inf, dtype),
+        t_broken=jnp.full((n,), jnp.inf, dtype),
         u_max=jnp.abs(u0[0]),
         time=f(0.0),
         saw_pos=f(0.0),
