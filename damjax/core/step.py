@@ -124,13 +124,21 @@ def step(model: Model, state: State) -> State:
     )
     v_star = state.v + dt * acc
     n_nodes = model.n_nodes
-    grid_mass = transfer.p2g(st, st.w * m, n_nodes)
+    S = len(st.w)
+    w_m = [st.w[k] * m for k in range(S)]
+    grid_mass = transfer.p2g(st, w_m, n_nodes)
     grid_mom = []
     for a in range(dim):
-        q = m * v_star[a][None] + sum(affine[a, b][None] * st.dpos[b] for b in range(dim))
-        grid_mom.append(transfer.p2g(st, st.w * q, n_nodes))
+        mv = m * v_star[a]
+        rows = []
+        for k in range(S):
+            q = mv
+            for b in range(dim):
+                q = q + affine[a, b] * st.dpos[k][b]
+            rows.append(st.w[k] * q)
+        grid_mom.append(transfer.p2g(st, rows, n_nodes))
     fcap = jnp.where(broken, m * model.friction * model.g_normal, 0.0)
-    grid_cap = transfer.p2g(st, st.w * fcap[None], n_nodes)
+    grid_cap = transfer.p2g(st, [st.w[k] * fcap for k in range(S)], n_nodes)
 
     # 3. grid update with the Coulomb friction cap
     has_mass = grid_mass > 0.0
@@ -142,15 +150,18 @@ def step(model: Model, state: State) -> State:
     scale = jnp.where(moving, jnp.maximum(0.0, 1.0 - dt * grid_cap * inv_m / speed), 0.0)
     vg = [c * scale for c in vg]
 
-    # 4. G2P
-    vs = [transfer.g2p(st, c) for c in vg]  # (S, n) each
-    v_new = jnp.stack([jnp.sum(st.w * c, axis=0) for c in vs])
-    C_new = jnp.stack(
-        [
-            jnp.stack([inv_d * jnp.sum(st.w * vs[a] * st.dpos[b], axis=0) for b in range(dim)])
-            for a in range(dim)
-        ]
-    )
+    # 4. G2P (rows kept separate: sums over the stencil are elementwise adds)
+    vs = [transfer.g2p(st, c) for c in vg]  # dim x S x (n,)
+    v_rows, C_rows = [], []
+    for a in range(dim):
+        wv = [st.w[k] * vs[a][k] for k in range(S)]
+        v_rows.append(sum(wv[1:], wv[0]))
+        C_rows.append([
+            inv_d * sum((wv[k] * st.dpos[k][b] for k in range(1, S)), wv[0] * st.dpos[0][b])
+            for b in range(dim)
+        ])
+    v_new = jnp.stack(v_rows)
+    C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new
     eps, sigma, eps_p, d_open = constitutive(
         model, state, state.eps + strain_increment(C_new, dt, dim)

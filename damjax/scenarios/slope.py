@@ -1,0 +1,398 @@
+"""Slope-scale release on terrain: the 2D DA-MPM step over a release area.
+
+Coordinates are surface coordinates: x along the fall line of the mean slope (up-slope
+positive, as in the PST), y across the slope, both measured along the surface [m]. The
+terrain enters through the local slope angle psi(x, y) (and optionally the local fall
+direction): gravity has the slope-parallel component g sin(psi) along the local fall
+line and the normal component g cos(psi), which sets the friction cap
+tau_r = rho g h cos(psi) tan(phi). For release areas whose curvature radius is much
+larger than the slab thickness this is the depth-averaged model of the paper's
+Sect. 3.4; the slope angle is evaluated at each particle's reference position (slabs
+slide metres, the terrain varies over tens of metres).
+
+The crack starts at a weak spot (the paper's star) with the PST sawing procedure: the
+cohesion is removed inside a disc whose radius grows at `saw_speed` until the crack
+leads the saw by 0.5 m. All release-area edges are free.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from damjax import theory
+from damjax.config import G_ACC, PSTParams, param_problems
+from damjax.core.loop import integrate
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State
+from damjax.core.step import column_height
+from damjax.materials import mcc, weak_layer
+from damjax.scenarios.pst import SAW_LEAD
+
+SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
+
+
+@dataclasses.dataclass(frozen=True)
+class SlopeSetup:
+    """Numerics and geometry of a slope-scale run.
+
+    Attributes:
+        length: down-slope extent of the release area along the surface [m].
+        width: cross-slope extent [m].
+        dx: grid spacing [m].
+        duration: simulated time [s].
+        start: crack initiation point (x, y) [m] (x up-slope from the lower edge).
+        cfl: Courant number.
+        particles_per_cell: particles per cell and dimension.
+        dtype: "float32" or "float64".
+        chunk_steps: steps per jitted chunk (one snapshot per chunk).
+        p0_rule: MCC p0 rule (see `PSTSetup`).
+    """
+
+    length: float = 50.0
+    width: float = 60.0
+    dx: float = 0.2
+    duration: float = 2.0
+    start: tuple[float, float] = (5.0, 30.0)
+    cfl: float = 0.5
+    particles_per_cell: int = 2
+    dtype: str = "float32"
+    chunk_steps: int = 100
+    p0_rule: str = "paper"
+
+
+def _problems(params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any) -> list[str]:
+    out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
+    for name in ("length", "width", "dx", "duration"):
+        v = getattr(setup, name)
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            out.append(f"{name} = {v!r}: must be in (0, inf)")
+    if not 0 < setup.cfl < 1:
+        out.append(f"cfl = {setup.cfl!r}: must be in (0, 1)")
+    x0, y0 = setup.start
+    if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
+        out.append(
+            f"start = {setup.start!r}: must lie in [0, {setup.length}] x [0, {setup.width}] m"
+        )
+    lam = float(theory.elastic_length(params)) if not out else 1.0
+    if not out and setup.dx > lam / 2:
+        out.append(f"dx = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m")
+    for name, arr, lo, hi in (("slope_deg", slope, 0.0, 90.0), ("tau_peak", tau, 0.0, math.inf)):
+        if arr is None:
+            continue
+        a = np.asarray(arr, dtype=float)
+        if a.ndim not in (0, 2) or not np.all(
+            np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))
+        ):
+            out.append(f"{name} field: must be a finite scalar or a 2D array (nx, ny)")
+        elif np.any(a <= lo) or np.any(a >= hi):
+            out.append(f"{name} field: values must be in ({lo}, {hi})")
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class SlopeLayout:
+    grid_shape: tuple[int, int]
+    pad: tuple[int, int]  # cells below x = 0 and beside y = 0
+    n_cells: tuple[int, int]
+    n_chunks: int
+    chunk_steps: int
+
+    @property
+    def n_steps(self) -> int:
+        return self.n_chunks * self.chunk_steps
+
+
+def make_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float) -> SlopeLayout:
+    dx = setup.dx
+    nx, ny = int(round(setup.length / dx)), int(round(setup.width / dx))
+    psi, phi = math.radians(max_slope_deg), math.radians(float(params.friction_deg))
+    acc = max(G_ACC * (math.sin(psi) - math.cos(psi) * math.tan(phi)), 0.0)
+    slide = 0.5 * acc * setup.duration**2
+    pad_x = int(math.ceil((1.25 * slide + 1.0) / dx)) + 3
+    pad_y = int(math.ceil(0.25 * slide / dx)) + 4
+    c = float(theory.plane_stress_wave_speed(params)) + acc * setup.duration
+    dt_max = setup.cfl * dx / c
+    n_chunks = max(1, int(math.ceil(setup.duration / dt_max / setup.chunk_steps)))
+    shape = (pad_x + nx + pad_y, 2 * pad_y + ny)
+    return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, setup.chunk_steps)
+
+
+def _bilinear(field: Any, xp: np.ndarray, yp: np.ndarray, dx: float) -> Any:
+    """Field given at cell centres (nx, ny), interpolated at (xp, yp) [m] (differentiable
+    in the field values: indices and weights are fixed numpy arrays)."""
+    f = jnp.asarray(field)
+    if f.ndim == 0:
+        return jnp.broadcast_to(f, xp.shape)
+    nx, ny = f.shape
+    gx = np.clip(xp / dx - 0.5, 0, nx - 1)
+    gy = np.clip(yp / dx - 0.5, 0, ny - 1)
+    i0 = np.minimum(np.floor(gx).astype(int), nx - 2 if nx > 1 else 0)
+    j0 = np.minimum(np.floor(gy).astype(int), ny - 2 if ny > 1 else 0)
+    tx, ty = gx - i0, gy - j0
+    i1, j1 = np.minimum(i0 + 1, nx - 1), np.minimum(j0 + 1, ny - 1)
+    return (
+        (1 - tx) * (1 - ty) * f[i0, j0]
+        + tx * (1 - ty) * f[i1, j0]
+        + (1 - tx) * ty * f[i0, j1]
+        + tx * ty * f[i1, j1]
+    )
+
+
+def build(
+    params: PSTParams,
+    setup: SlopeSetup,
+    layout: SlopeLayout,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any = 0.0,
+) -> tuple[Model, State, np.ndarray, np.ndarray]:
+    """Model, initial state and the particles' reference positions (x, y) [m]."""
+    dtype = jnp.dtype(setup.dtype)
+    f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
+    dx, ppc = setup.dx, setup.particles_per_cell
+    nx, ny = layout.n_cells
+    sub = (np.arange(ppc) + 0.5) / ppc
+    cx, fx = np.repeat(np.arange(nx), ppc), np.tile(sub, nx)
+    cy, fy = np.repeat(np.arange(ny), ppc), np.tile(sub, ny)
+    cell0 = np.stack([np.repeat(cx, cy.size) + layout.pad[0], np.tile(cy, cx.size) + layout.pad[1]])
+    frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
+    xp = (cell0[0] - layout.pad[0] + frac0[0]) * dx
+    yp = (cell0[1] - layout.pad[1] + frac0[1]) * dx
+    n = xp.size
+    psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
+    fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
+    tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
+    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
+    _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
+    gs = G_ACC * jnp.sin(psi)
+    g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
+    phi = jnp.deg2rad(f(params.friction_deg))
+    x0, y0 = setup.start
+    plastic = bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
+    model = Model(
+        grid_shape=layout.grid_shape,
+        dx=float(dx),
+        periodic=(False, False),
+        lateral="free",
+        saw_stops=True,
+        cell0=jnp.asarray(cell0, jnp.int32),
+        frac0=jnp.asarray(frac0, dtype),
+        saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
+        dt=f(setup.duration / layout.n_steps),
+        density=f(params.density),
+        thickness=f(params.thickness),
+        area0=f((dx / ppc) ** 2),
+        youngs_modulus=f(params.youngs_modulus),
+        poisson=f(params.poisson),
+        plastic=plastic,
+        p0_init=mcc.p0_from_tensile_strength(
+            f(params.tensile_strength), f(params.mcc_m), f(params.mcc_beta), setup.p0_rule
+        ),
+        mcc_m=f(params.mcc_m),
+        mcc_beta=f(params.mcc_beta),
+        mcc_xi=f(params.mcc_xi),
+        g_tangent=g_t,
+        g_normal=G_ACC * jnp.cos(psi),
+        stiffness=K,
+        tau_peak=tau_p,
+        softening=f(params.softening),
+        u_res=u_res,
+        friction=jnp.tan(phi),
+        saw_speed=f(params.saw_speed),
+        saw_lead=f(SAW_LEAD),
+    )
+    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
+    u0 = (f(params.density) * f(params.thickness) / K) * g_t
+    z3 = lambda: jnp.zeros((3, n), dtype)  # noqa: E731
+    state = State(
+        u=u0,
+        v=jnp.zeros((2, n), dtype),
+        C=jnp.zeros((2, 2, n), dtype),
+        eps=z3(),
+        sigma=z3(),
+        eps_p=z3(),
+        opening=jnp.zeros((n,), dtype),
+        t_fracture=jnp.full((n,), jnp.inf, dtype),
+        t_broken=jnp.full((n,), jnp.inf, dtype),
+        u_max=jnp.sqrt(jnp.sum(u0 * u0, axis=0)),
+        time=f(0.0),
+        saw_pos=f(0.0),
+        saw_active=jnp.asarray(True),
+        tip=f(0.0),
+        fault=jnp.asarray(0, jnp.int32),
+        fault_time=f(jnp.nan),
+    )
+    return model, state, xp, yp
+
+
+def _snapshot(model: Model, state: State) -> dict[str, Any]:
+    return {
+        "time": state.time,
+        "height": column_height(model, state),
+        "broken": jnp.isfinite(state.t_broken),
+    }
+
+
+@dataclasses.dataclass
+class SlopeResult:
+    """Maps on the cell grid (nx, ny) of the release area, and summary numbers."""
+
+    x: np.ndarray  # (nx,) cell centres up-slope [m]
+    y: np.ndarray  # (ny,) cell centres across [m]
+    height: np.ndarray  # final column height h [m]
+    arrival_time: np.ndarray  # weak-layer failure time [s] (inf: intact)
+    tension: np.ndarray  # final sigma_xx [Pa]
+    opening: np.ndarray  # accumulated tensile plastic strain [-]
+    tau_peak: np.ndarray  # weak-layer strength [Pa]
+    slope_deg: np.ndarray  # local slope angle [deg]
+    snapshots: dict[str, np.ndarray]  # per chunk: time, height map, broken map
+    summary: dict[str, Any]
+    setup: SlopeSetup
+    params: PSTParams
+
+
+def _cell_map(
+    values: np.ndarray,
+    cell0: np.ndarray,
+    pad: tuple[int, int],
+    n_cells: tuple[int, int],
+    reduce: str = "mean",
+) -> np.ndarray:
+    ix = cell0[0] - pad[0]
+    iy = cell0[1] - pad[1]
+    flat = ix * n_cells[1] + iy
+    size = n_cells[0] * n_cells[1]
+    if reduce == "min":
+        out = np.full(size, np.inf)
+        np.minimum.at(out, flat, values)
+    else:
+        out = np.bincount(flat, weights=values, minlength=size) / np.maximum(
+            np.bincount(flat, minlength=size), 1
+        )
+    return out.reshape(n_cells)
+
+
+def _front_speed(coord: np.ndarray, t: np.ndarray, lo: float, hi: float) -> float:
+    """Speed [m/s] of the crack front along a band: least squares of coord vs arrival."""
+    sel = np.isfinite(t) & (coord >= lo) & (coord <= hi)
+    if sel.sum() < 5 or np.ptp(t[sel]) <= 0:
+        return math.nan
+    # earliest arrival per 0.5 m bin: the front, not late failures behind it
+    bins = np.floor(coord[sel] / 0.5).astype(int)
+    tb = {}
+    for b, tt in zip(bins, t[sel], strict=True):
+        tb[b] = min(tb.get(b, np.inf), tt)
+    if len(tb) < 3:
+        return math.nan
+    cb = np.array(sorted(tb)) * 0.5 + 0.25
+    tt = np.array([tb[k] for k in sorted(tb)])
+    return float(1.0 / np.polyfit(cb, tt, 1)[0])
+
+
+def simulate_slope(
+    params: PSTParams,
+    setup: SlopeSetup | None = None,
+    *,
+    slope_deg: Any = None,
+    tau_peak: Any = None,
+    fall_deg: Any = 0.0,
+    progress: bool = False,
+) -> SlopeResult:
+    """Run a slope-scale release.
+
+    Args:
+        params: slab and weak-layer parameters (`slope_deg` and `tau_peak` are used when
+            the corresponding field is not given).
+        setup: geometry and numerics.
+        slope_deg: local slope angle [deg], scalar or (nx, ny) at cell centres.
+        tau_peak: weak-layer strength [Pa], scalar or (nx, ny) at cell centres (e.g. a
+            Gaussian random field from `damjax.fields`).
+        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
+        progress: tqdm progress bar.
+    """
+    setup = SlopeSetup() if setup is None else setup
+    slope_deg = params.slope_deg if slope_deg is None else slope_deg
+    tau_peak = params.tau_peak if tau_peak is None else tau_peak
+    problems = _problems(params, setup, slope_deg, tau_peak)
+    if problems:
+        raise ValueError("\n".join(problems))
+    if setup.dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    layout = make_layout(params, setup, float(np.max(slope_deg)))
+    model, state, xp, yp = build(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    final, tips, snaps, info = integrate(
+        model, state, layout.n_chunks, layout.chunk_steps, snapshot=_snapshot, progress=progress
+    )
+    cell0 = np.asarray(model.cell0)
+
+    def cm(v: Any, r: str = "mean") -> np.ndarray:
+        return _cell_map(np.asarray(v, float), cell0, layout.pad, layout.n_cells, r)
+
+    t_b = np.asarray(final.t_broken, float)
+    broken = np.isfinite(t_b)
+    x0, y0 = setup.start
+    band_x = np.abs(yp - y0) <= SPEED_BAND
+    band_y = np.abs(xp - x0) <= SPEED_BAND
+    up = np.max(np.where(broken & band_x, xp - x0, 0.0))
+    x_top = np.max(np.where(broken, xp, 0.0))
+    cs = float(theory.shear_wave_speed(params))
+    saw_r = float(final.saw_pos)
+    v_up = _front_speed(xp[band_x] - x0, t_b[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0))
+    dy = np.abs(yp[band_y] - y0)
+    across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
+    v_cross = _front_speed(dy, t_b[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0))
+    height = cm(column_height(model, final))
+    h0 = float(params.thickness)
+    fault = None
+    if int(final.fault):
+        fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
+            m for b, m in FAULT_MESSAGES.items() if int(final.fault) & b
+        )
+    summary = {
+        "upslope_arrest_distance_m": float(up),
+        "arrested_before_top": bool(x_top < setup.length - 2.0),
+        "crossslope_extent_m": float(across),
+        "upslope_crack_speed_over_cs": v_up / cs,
+        "crossslope_crack_speed_over_cs": v_cross / cs,
+        "release_area_m2": float(broken.sum() * float(model.area0)),
+        "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
+        "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
+        "slab_fracture_area_m2": float(np.sum(cm(final.opening) >= FRACTURE_STRAIN) * setup.dx**2),
+        "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
+        "shear_wave_speed_m_per_s": cs,
+        "fault": fault,
+        "n_particles": int(xp.size),
+        "n_steps": int(info.steps_done),
+        "compile_time_s": info.compile_time_s,
+        "wall_time_s": info.wall_time_s,
+        "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
+    }
+    nx, ny = layout.n_cells
+    snapshots = {}
+    if snaps:
+        snapshots = {
+            "time": np.array([s["time"] for s in snaps]),
+            "height": np.stack([cm(s["height"]) for s in snaps]),
+            "broken": np.stack([cm(s["broken"]) for s in snaps]),
+        }
+    return SlopeResult(
+        x=(np.arange(nx) + 0.5) * setup.dx,
+        y=(np.arange(ny) + 0.5) * setup.dx,
+        height=height,
+        arrival_time=cm(t_b, "min"),
+        tension=cm(final.sigma[0]),
+        opening=cm(final.opening),
+        tau_peak=cm(model.tau_peak),
+        slope_deg=cm(
+            np.degrees(np.arcsin(np.clip(np.hypot(*np.asarray(model.g_tangent)) / G_ACC, 0, 1)))
+        ),
+        snapshots=snapshots,
+        summary=summary,
+        setup=setup,
+        params=params,
+    )
