@@ -159,13 +159,32 @@ def pst_grad() -> None:
     v, g = grad_c(params)
     jax.block_until_ready(g)
     t_g = time.perf_counter() - t0
-    emit(case="pst_grad", n_particles=layout.n_particles, n_steps=layout.n_steps,
-         dtype=setup.dtype, compile_time_s=round(t_cf, 2), grad_compile_time_s=round(t_cg, 2),
-         wall_time_s=round(t_f, 3), grad_wall_time_s=round(t_g, 3),
-         grad_over_forward=round(t_g / t_f, 2),
-         particle_steps_per_s=round(layout.n_particles * layout.n_steps / t_f),
-         forward_peak_rss_mb=round(rss_f, 1), arrest_position_smooth_m=value,
-         d_arrest_d_theta=float(g.strength_gradient), d_arrest_d_delta=float(g.softening))
+    emit(
+        case="pst_grad",
+        n_particles=layout.n_particles,
+        n_steps=layout.n_steps,
+        dtype=setup.dtype,
+        compile_time_s=round(t_cf, 2),
+        grad_compile_time_s=round(t_cg, 2),
+        wall_time_s=round(t_f, 3),
+        grad_wall_time_s=round(t_g, 3),
+        grad_over_forward=round(t_g / t_f, 2),
+        particle_steps_per_s=round(layout.n_particles * layout.n_steps / t_f),
+        forward_peak_rss_mb=round(rss_f, 1),
+        arrest_position_smooth_m=value,
+        d_arrest_d_theta=float(g.strength_gradient),
+        d_arrest_d_delta=float(g.softening),
+    )
+
+
+@case
+def mpm88() -> None:
+    """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers vs Taichi CPU."""
+    from benchmarks import mpm88 as m
+
+    ti = m.taichi_init(m.n_threads())  # None (peer skipped) if taichi is not importable
+    for n, repeats in ((8192, 5), (32768, 5), (131072, 3)):
+        emit(**m.run_case(n, n_steps=100, repeats=repeats, ti=ti))
 
 
 def _run(name: str) -> None:

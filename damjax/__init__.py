@@ -7,11 +7,12 @@ Public API (one screen):
 - `sweep`: a batch of PSTs as one vmapped (sharded) computation;
 - `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX);
 - `calibrate`: scaling-law fits and parameter inversion through the solver (optax);
+- `scenario`, `runner`: TOML scenario files, runs with NetCDF output and restart;
 - `theory`: closed forms of the paper (tau_g, k_f, k_x, Lambda, ...);
 - `diagnostics`: crack tip, speed, arrest, tension gradient.
 """
 
-from damjax import calibrate, diagnostics, plot, theory
+from damjax import calibrate, diagnostics, plot, runner, scenario, theory
 from damjax.config import PSTParams, PSTSetup
 from damjax.scenarios.pst import PSTResult, arrest_position_smooth, simulate_pst
 from damjax.sweep import sweep
@@ -27,6 +28,8 @@ __all__ = [
     "calibrate",
     "diagnostics",
     "plot",
+    "runner",
+    "scenario",
     "simulate_pst",
     "sweep",
     "theory",

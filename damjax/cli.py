@@ -1,7 +1,13 @@
-"""Command line: ``damjax pst [--flag value ...] [--json] [--plot FILE]``.
+"""Command line: ``damjax pst|scenarios|run|resume|show ...`` (``damjax CMD --help``).
 
-Bad input exits with status 2 and one line per problem (flag, value, valid range);
-never a traceback.
+``damjax pst [--flag value ...] [--json] [--plot FILE]`` runs a PST from flags. Scenario
+files: ``damjax scenarios`` (list the shipped ones), ``damjax run SCENARIO
+[--out DIR] [--json] [--quiet] [--checkpoint-every SECONDS]``, ``damjax resume DIR``,
+``damjax show DIR``.
+
+Bad input exits with status 2 and one line per problem (flag or TOML key, value, valid
+range); never a traceback. A runtime fault exits with status 3 after writing the results
+up to it; an interrupt with status 130.
 """
 
 from __future__ import annotations
@@ -138,18 +144,180 @@ def cmd_pst(ns: argparse.Namespace) -> int:
     return 0
 
 
+class _WarningPrinter:
+    """Print each distinct UserWarning once as ``damjax: warning: ...`` (stderr)."""
+
+    def __enter__(self) -> _WarningPrinter:
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()
+        warnings.simplefilter("always")
+        self._seen: set[str] = set()
+        warnings.showwarning = self._show  # type: ignore[assignment]
+        return self
+
+    def _show(self, message: Any, category: Any, *args: Any, **kwargs: Any) -> None:
+        text = str(message)
+        if issubclass(category, UserWarning) and text not in self._seen:
+            self._seen.add(text)
+            sys.stderr.write(f"damjax: warning: {text}\n")
+
+    def __exit__(self, *exc: Any) -> None:
+        self._ctx.__exit__(*exc)
+
+
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be in [0, inf) s")
+    return v
+
+
+def _report(outcome: Any, as_json: bool) -> int:
+    from damjax import io
+
+    if as_json:
+        print(io.to_json(outcome.summary))
+    else:
+        _print_summary({k: v for k, v in outcome.summary.items() if k != "out_dir"})
+        for key, path in outcome.files.items():
+            print(f"{key:34s} {path}")
+    if outcome.fault:
+        sys.stderr.write(f"damjax: {outcome.fault}\n")
+        return 3
+    return 0
+
+
+def _interrupted(out: Any) -> int:
+    from damjax import runner
+
+    if (out / runner.CHECKPOINT).is_file():
+        sys.stderr.write(f"damjax: interrupted; continue with: damjax resume {out}\n")
+    else:
+        sys.stderr.write("damjax: interrupted (no checkpoint written)\n")
+    return 130
+
+
+def cmd_scenarios(ns: argparse.Namespace) -> int:
+    from damjax import scenario
+
+    rows = scenario.describe_shipped()
+    width = max((len(n) for n, _ in rows), default=0)
+    for name, desc in rows:
+        print(f"{name:{width}s}  {desc}")
+    return 0
+
+
+def cmd_run(ns: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from damjax import runner, scenario
+
+    with _WarningPrinter():
+        path = scenario.resolve(ns.scenario)
+        try:
+            scn = scenario.load(path)
+        except ValueError as exc:
+            raise ValueError(
+                "\n".join(f"{path.name}: {line}" for line in str(exc).splitlines())
+            ) from None
+        out = Path(ns.out) if ns.out else runner.default_out_dir(scn)
+        _enable_compilation_cache()
+        try:
+            outcome = runner.run(
+                scn, out, checkpoint_every=ns.checkpoint_every, progress=not ns.quiet
+            )
+        except KeyboardInterrupt:
+            return _interrupted(out)
+    return _report(outcome, ns.json)
+
+
+def cmd_resume(ns: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from damjax import runner
+
+    out = Path(ns.dir)
+    every = -1.0 if ns.checkpoint_every is None else ns.checkpoint_every
+    with _WarningPrinter():
+        _enable_compilation_cache()
+        try:
+            outcome = runner.resume(out, checkpoint_every=every, progress=not ns.quiet)
+        except KeyboardInterrupt:
+            return _interrupted(out)
+    return _report(outcome, ns.json)
+
+
+def cmd_show(ns: argparse.Namespace) -> int:
+    from damjax import io, runner
+
+    summary, plot = runner.show(ns.dir, ns.plot)
+    if ns.json:
+        print(io.to_json(summary))
+    else:
+        _print_summary({k: v for k, v in summary.items() if k != "out_dir"})
+        print(f"{'plot':34s} {plot}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="damjax", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     p = sub.add_parser("pst", help="run a propagation saw test")
     _add_pst_flags(p)
     p.set_defaults(func=cmd_pst)
+
+    p = sub.add_parser("scenarios", help="list the shipped scenario files")
+    p.set_defaults(func=cmd_scenarios)
+
+    p = sub.add_parser(
+        "run",
+        help="run a scenario file (or a shipped scenario by name)",
+        description="Run a scenario and write results.nc, summary.json, final_state.npz "
+        "and pst.png into DIR.",
+    )
+    p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default ./damjax-out/<name>)")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--checkpoint-every",
+        metavar="SECONDS",
+        type=_seconds,
+        default=None,
+        help="write DIR/checkpoint.npz every SECONDS of wall-clock time (0: every chunk)",
+    )
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("resume", help="continue a checkpointed run in DIR")
+    p.add_argument("dir", metavar="DIR", help="output folder holding checkpoint.npz")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--checkpoint-every",
+        metavar="SECONDS",
+        type=_seconds,
+        default=None,
+        help="checkpoint interval (default: that of the interrupted run)",
+    )
+    p.set_defaults(func=cmd_resume)
+
+    p = sub.add_parser("show", help="print the summary and re-plot a finished run in DIR")
+    p.add_argument("dir", metavar="DIR", help="output folder holding results.nc")
+    p.add_argument("--plot", metavar="FILE", help="figure file (default DIR/pst.png)")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.set_defaults(func=cmd_show)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    ns = parser.parse_args(argv)
+    try:
+        ns = parser.parse_args(argv)
+    except SystemExit as exc:  # usage error (status 2, one line) or --help (status 0)
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         return ns.func(ns)
     except ValueError as exc:  # validation: one line per problem
@@ -159,6 +327,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("damjax: interrupted\n")
         return 130
+    except OSError as exc:  # unreadable input, unwritable output folder, full disk
+        sys.stderr.write(f"damjax: error: {' '.join(str(exc).split())}\n")
+        return 1
 
 
 if __name__ == "__main__":

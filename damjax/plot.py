@@ -91,3 +91,81 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     if path:
         fig.savefig(path, dpi=120)
     return fig
+
+
+def plot_slope(result: Any, path: str | None = None) -> Any:
+    """Maps of a slope-scale release: column height with the crown (h < 0.98 h0, blue)
+    and the stauchwall (h > 1.02 h0, red), crack arrival time, weak-layer strength."""
+    plt = _plt()
+    from matplotlib.colors import ListedColormap
+
+    h0 = float(result.params.thickness)
+    ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 5.5), constrained_layout=True)
+    ax = axes[0]
+    broken = np.isfinite(result.arrival_time)
+    ax.imshow(broken, origin="lower", extent=ext, cmap=ListedColormap(["white", "0.85"]),
+              aspect="equal")
+    marks = np.zeros(result.height.shape)
+    marks[result.height < 0.98 * h0] = -1
+    marks[result.height > 1.02 * h0] = 1
+    masked = np.ma.masked_where(marks == 0, marks)
+    ax.imshow(masked, origin="lower", extent=ext, cmap=ListedColormap(["tab:blue", "tab:red"]),
+              vmin=-1, vmax=1, aspect="equal")
+    x0, y0 = result.setup.start
+    ax.plot([y0], [x0], "k*", ms=12)
+    ax.set_title("released (grey), crown h<0.98h0 (blue),\nstauchwall h>1.02h0 (red)",
+                 fontsize=9)
+    ax.set_xlabel("y across [m]")
+    ax.set_ylabel("x up-slope [m]")
+    ax = axes[1]
+    t = np.where(broken, result.arrival_time, np.nan)
+    im = ax.imshow(t, origin="lower", extent=ext, cmap="viridis", aspect="equal")
+    fig.colorbar(im, ax=ax, shrink=0.8, label="crack arrival time [s]")
+    ax.plot([y0], [x0], "k*", ms=12)
+    ax.set_xlabel("y across [m]")
+    ax = axes[2]
+    im = ax.imshow(result.tau_peak, origin="lower", extent=ext, cmap="magma", aspect="equal")
+    fig.colorbar(im, ax=ax, shrink=0.8, label=r"weak-layer strength $\tau_p$ [Pa]")
+    ax.contour(result.y, result.x, result.slope_deg, colors="w", linewidths=0.6)
+    ax.set_xlabel("y across [m]")
+    ax.set_title("strength, slope-angle contours (white)", fontsize=9)
+    s = result.summary
+    fig.suptitle(
+        f"up-slope arrest {s['upslope_arrest_distance_m']:.1f} m, release area "
+        f"{s['release_area_m2']:.0f} m$^2$, up-slope speed "
+        f"{s['upslope_crack_speed_over_cs']:.2f} $c_s$, cross-slope "
+        f"{s['crossslope_crack_speed_over_cs']:.2f} $c_s$"
+    )
+    if path:
+        fig.savefig(path, dpi=110)
+    return fig
+
+
+def animate_slope(result: Any, path: str, fps: int = 8) -> None:
+    """GIF of the release: released weak layer (grey) and column height anomalies."""
+    plt = _plt()
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    snaps = result.snapshots
+    h0 = float(result.params.thickness)
+    ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
+    fig, ax = plt.subplots(figsize=(5, 5.5), constrained_layout=True)
+    im = ax.imshow(snaps["height"][0] / h0 - 1, origin="lower", extent=ext, cmap="RdBu_r",
+                   vmin=-0.03, vmax=0.03, aspect="equal")
+    cover = ax.imshow(np.ma.masked_where(snaps["broken"][0] < 0.5, snaps["broken"][0]),
+                      origin="lower", extent=ext, cmap="Greys", alpha=0.35, vmin=0, vmax=2,
+                      aspect="equal")
+    fig.colorbar(im, ax=ax, shrink=0.8, label="h / h0 - 1")
+    title = ax.set_title("")
+
+    def frame(k: int) -> list[Any]:
+        im.set_data(snaps["height"][k] / h0 - 1)
+        b = snaps["broken"][k]
+        cover.set_data(np.ma.masked_where(b < 0.5, b))
+        title.set_text(f"t = {snaps['time'][k]:.2f} s")
+        return [im, cover, title]
+
+    anim = FuncAnimation(fig, frame, frames=len(snaps["time"]), blit=False)
+    anim.save(path, writer=PillowWriter(fps=fps))
+    plt.close(fig)

@@ -255,6 +255,52 @@ class SlopeResult:
     setup: SlopeSetup
     params: PSTParams
 
+    def to_dataset(self) -> Any:
+        """xarray Dataset of the maps and snapshots, CF-style units and long names."""
+        import json
+
+        import xarray as xr
+
+        import damjax
+
+        def var(dims: tuple[str, ...], data: Any, units: str, long_name: str) -> Any:
+            return xr.Variable(dims, np.asarray(data), {"units": units, "long_name": long_name})
+
+        at = np.where(np.isfinite(self.arrival_time), self.arrival_time, np.nan)
+        ds = xr.Dataset(
+            {
+                "height": var(("x", "y"), self.height, "m", "slab column height"),
+                "arrival_time": var(("x", "y"), at, "s", "weak-layer failure time"),
+                "tension": var(("x", "y"), self.tension, "Pa", "slab tension sigma_xx"),
+                "opening": var(("x", "y"), self.opening, "1", "tensile plastic strain"),
+                "tau_peak": var(("x", "y"), self.tau_peak, "Pa", "weak-layer shear strength"),
+                "slope_angle": var(("x", "y"), self.slope_deg, "degree", "local slope angle"),
+            },
+            coords={
+                "x": var(("x",), self.x, "m", "up-slope distance along the surface"),
+                "y": var(("y",), self.y, "m", "cross-slope distance along the surface"),
+            },
+        )
+        if self.snapshots:
+            ds["snapshot_time"] = var(("snapshot",), self.snapshots["time"], "s",
+                                      "time of the snapshot")
+            ds["height_snapshots"] = var(("snapshot", "x", "y"), self.snapshots["height"], "m",
+                                         "slab column height")
+            ds["released_snapshots"] = var(("snapshot", "x", "y"),
+                                           self.snapshots["broken"].astype(np.float32), "1",
+                                           "released fraction of the weak layer")
+        ds.attrs = {
+            "title": "damjax slope-scale release",
+            "damjax_version": damjax.__version__,
+            "setup": json.dumps(dataclasses.asdict(self.setup)),
+            "params": json.dumps({f.name: (None if getattr(self.params, f.name) is None else
+                                           np.asarray(getattr(self.params, f.name)).tolist())
+                                  for f in dataclasses.fields(self.params)}),
+            "summary": json.dumps(self.summary),
+            "Conventions": "CF-1.8",
+        }
+        return ds
+
 
 def _cell_map(
     values: np.ndarray,

@@ -1,0 +1,289 @@
+"""Files of a run: atomic writes, pytrees as ``.npz``, results as CF-style NetCDF.
+
+Every writer goes through `atomic_path`: the data is written to a temporary file in the
+destination folder, flushed to disk, then moved over the destination with `os.replace`,
+so a run killed at any moment leaves either the old file or the new one, never half of
+one. Nothing here knows a scenario or the solver: results are read by attribute
+(``result.x``, ``result.tip``, ...), pytrees by `jax.tree_util` paths.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+TMP_SUFFIX = ".tmp"
+_UMASK = os.umask(0o022)
+os.umask(_UMASK)
+
+# name -> (CF units, long_name); names not listed keep their name as long_name
+VARIABLES: dict[str, tuple[str, str]] = {
+    "x": ("m", "distance along the PST from its lower end (particle reference position)"),
+    "time": ("s", "simulated time after each time step"),
+    "crack_tip": ("m", "crack tip position along the PST"),
+    "crack_speed": ("m s-1", "crack speed (central difference of the crack tip)"),
+    "sigma_xx": ("Pa", "depth-averaged slab tension sigma_xx at the end of the run"),
+    "height": ("m", "slab column height h at the end of the run"),
+    "slip": ("m", "slope-parallel weak-layer slip u at the end of the run"),
+    "u_max": ("m", "maximum weak-layer slip reached during the run"),
+    "tau_peak": ("Pa", "weak-layer peak shear strength tau_p"),
+    "opening": ("1", "accumulated tensile plastic strain of the slab (fracture indicator)"),
+    "wl_shear": ("Pa", "weak-layer shear stress magnitude at the end of the run"),
+    "snapshot_time": ("s", "simulated time at the end of each chunk"),
+    "snapshot_tip": ("m", "crack tip position at the end of each chunk"),
+    "snapshot_sigma_xx": ("Pa", "depth-averaged slab tension sigma_xx at the end of each chunk"),
+    "snapshot_height": ("m", "slab column height h at the end of each chunk"),
+    "snapshot_slip": ("m", "slope-parallel weak-layer slip u at the end of each chunk"),
+}
+_SERIES = ("x", "time", "tip")  # result attributes that are coordinates or series
+
+
+# --------------------------------------------------------------------------- atomic
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; move it over ``path`` on success.
+
+    On an exception (or KeyboardInterrupt) the temporary file is removed and ``path``
+    is left untouched.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TMP_SUFFIX)
+    os.close(fd)
+    os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; give the usual permissions
+    try:
+        yield Path(tmp)
+        with open(tmp, "rb+") as fh:  # the data reaches the disk before the rename
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def remove_stale_temporaries(folder: str | os.PathLike[str]) -> None:
+    """Delete temporary files a killed writer left in ``folder``."""
+    for p in Path(folder).glob(f".*{TMP_SUFFIX}"):
+        with contextlib.suppress(OSError):
+            p.unlink()
+
+
+def write_text(path: str | os.PathLike[str], text: str) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def _finite_or_none(obj: Any) -> Any:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite_or_none(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_or_none(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return _finite_or_none(obj.item())
+    return obj
+
+
+def to_json(obj: Any) -> str:
+    """Strict JSON (non-finite floats become null)."""
+    return json.dumps(_finite_or_none(obj), allow_nan=False)
+
+
+def write_json(path: str | os.PathLike[str], obj: Any) -> None:
+    write_text(path, json.dumps(_finite_or_none(obj), indent=2, allow_nan=False) + "\n")
+
+
+def write_npz(path: str | os.PathLike[str], arrays: dict[str, Any]) -> None:
+    """Uncompressed ``.npz`` (no pickles: strings are stored as unicode arrays)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()})
+
+
+def read_npz(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str]) -> None:
+    """Write a matplotlib figure atomically (format from the suffix) and close it."""
+    path = Path(path)
+    fmt = path.suffix.lstrip(".") or "png"
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=120)
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+
+
+# --------------------------------------------------------------------------- pytrees
+
+
+def tree_to_arrays(tree: Any, prefix: str) -> dict[str, np.ndarray]:
+    """Every leaf of a pytree as a numpy copy, keyed ``prefix + path`` (``state.u``)."""
+    import jax
+
+    leaves, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return {prefix + jax.tree_util.keystr(p): np.array(x, copy=True) for p, x in leaves}
+
+
+def arrays_to_tree(arrays: dict[str, np.ndarray], template: Any, prefix: str) -> Any:
+    """Inverse of `tree_to_arrays` on the structure of ``template`` (ValueError if the
+    saved leaves do not match its names, shapes and dtypes)."""
+    import jax
+
+    leaves, treedef = jax.tree_util.tree_flatten_with_path(template)
+    names = [prefix + jax.tree_util.keystr(p) for p, _ in leaves]
+    saved = sorted(k for k in arrays if k.startswith(prefix))
+    if sorted(names) != saved:
+        missing = sorted(set(names) - set(saved))
+        extra = sorted(set(saved) - set(names))
+        raise ValueError(
+            f"saved state does not match this damjax version's State (missing: {missing}, "
+            f"unexpected: {extra})"
+        )
+    out = []
+    for name, (_, ref) in zip(names, leaves, strict=True):
+        arr = arrays[name]
+        if arr.shape != np.shape(ref) or arr.dtype != np.asarray(ref).dtype:
+            raise ValueError(
+                f"saved state leaf {name} has shape {arr.shape} and dtype {arr.dtype}, "
+                f"expected {np.shape(ref)} and {np.asarray(ref).dtype}"
+            )
+        out.append(jax.device_put(arr))
+    return jax.tree_util.tree_unflatten(treedef, out)
+
+
+# --------------------------------------------------------------------------- results
+
+
+def _var(name: str, dims: tuple[str, ...], data: np.ndarray, meta: Any = None) -> Any:
+    """A variable with CF ``units`` and ``long_name`` (from `VARIABLES`, or from the
+    ``units``/``long_name`` metadata of the result's dataclass field)."""
+    import xarray as xr
+
+    units, long_name = VARIABLES.get(name, (None, name.replace("_", " ")))
+    if meta:
+        units, long_name = meta.get("units", units), meta.get("long_name", long_name)
+    attrs = {"long_name": long_name}
+    if units is not None:
+        attrs["units"] = units
+    return xr.Variable(dims, np.asarray(data), attrs)
+
+
+def _particle_dims(name: str, arr: np.ndarray, n_x: int, lead: tuple[str, ...]) -> tuple:
+    """Dimension names: the particle axis is 'x' when it matches the x coordinate."""
+    last = "x" if arr.shape[-1] == n_x else "particle"
+    extra = tuple(f"{name}_dim{i}" for i in range(arr.ndim - 1 - len(lead)))
+    return lead + extra + (last,)
+
+
+def result_dataset(
+    result: Any,
+    *,
+    crack_speed: np.ndarray,
+    attrs: dict[str, Any],
+    snapshots: bool = True,
+) -> Any:
+    """An `xarray.Dataset` of a PST result (CF-style ``units`` and ``long_name``).
+
+    Coordinates ``x`` (particle reference position) and ``time`` (after each step);
+    series ``crack_tip``, ``crack_speed``; every other 1-D array attribute of the
+    result (final fields: sigma_xx, height, slip, u_max, tau_peak, ...) on ``x`` (or on
+    ``particle`` where it is per particle of a 2-D strip); the per-chunk snapshots as
+    ``snapshot_*`` on ``chunk``. ``attrs`` become global attributes.
+    """
+    import xarray as xr
+
+    x = np.asarray(result.x)
+    data: dict[str, Any] = {
+        "crack_tip": _var("crack_tip", ("time",), result.tip),
+        "crack_speed": _var("crack_speed", ("time",), np.asarray(crack_speed, result.tip.dtype)),
+    }
+    coords: dict[str, Any] = {
+        "x": _var("x", ("x",), x),
+        "time": _var("time", ("time",), result.time),
+    }
+    for f in dataclasses.fields(result):
+        value = getattr(result, f.name)
+        if f.name in _SERIES or not isinstance(value, np.ndarray) or value.ndim == 0:
+            continue
+        dims = _particle_dims(f.name, value, x.size, ())
+        data[f.name] = _var(f.name, dims, value, f.metadata)
+    if snapshots and result.snapshots:
+        for key, value in result.snapshots.items():
+            value = np.asarray(value)
+            name = f"snapshot_{key}"
+            if key == "time":
+                coords[name] = _var(name, ("chunk",), value)
+            elif value.ndim == 1:
+                data[name] = _var(name, ("chunk",), value)
+            else:
+                data[name] = _var(name, _particle_dims(name, value, x.size, ("chunk",)), value)
+    clean = {k: (json.dumps(v) if isinstance(v, bool) else v) for k, v in attrs.items()}
+    return xr.Dataset(data, coords=coords, attrs={k: v for k, v in clean.items() if v is not None})
+
+
+def netcdf_engine() -> str:
+    """``h5netcdf`` (NetCDF4/HDF5) when its h5py backend is installed, else ``scipy``
+    (NetCDF3 with 64-bit offsets; scipy comes with jax)."""
+    import importlib.util
+
+    if importlib.util.find_spec("h5netcdf") and importlib.util.find_spec("h5py"):
+        return "h5netcdf"
+    return "scipy"
+
+
+def write_dataset(path: str | os.PathLike[str], ds: Any, engine: str | None = None) -> None:
+    """Write a dataset as NetCDF (engine: `netcdf_engine` unless given)."""
+    engine = engine or netcdf_engine()
+    fmt = "NETCDF4" if engine == "h5netcdf" else "NETCDF3_64BIT"
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine=engine, format=fmt)
+
+
+def open_dataset(path: str | os.PathLike[str]) -> Any:
+    """Read a results file fully into memory (no time decoding: times are seconds).
+
+    The format (NetCDF4/HDF5 or NetCDF3) is recognised from the file's first bytes.
+    """
+    import xarray as xr
+
+    with open(path, "rb") as fh:
+        engine = "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
+    with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
+        return ds.load()
+
+
+def dataset_fields(ds: Any) -> dict[str, Any]:
+    """Arrays of a results dataset under the result's attribute names (``x``, ``time``,
+    ``tip``, the final fields, and ``snapshots`` as a dict)."""
+    out: dict[str, Any] = {
+        "x": ds["x"].values,
+        "time": ds["time"].values,
+        "tip": ds["crack_tip"].values,
+    }
+    snaps: dict[str, np.ndarray] = {}
+    for name in ds.variables:
+        if name in ("x", "time", "crack_tip", "crack_speed"):
+            continue
+        if name.startswith("snapshot_"):
+            snaps[name[len("snapshot_") :]] = ds[name].values
+        else:
+            out[name] = ds[name].values
+    out["snapshots"] = snaps
+    return out

@@ -1,0 +1,376 @@
+"""Run a scenario into a folder, checkpoint it on a wall-clock interval, resume it.
+
+A run writes into its output folder (every file atomically, see `damjax.io`):
+
+- ``results.nc``: time series, final fields and snapshots (`damjax.io.result_dataset`),
+  with the full scenario (TOML text) and the damjax version as global attributes; no
+  wall-clock timings, so an interrupted-and-resumed run gives an identical file;
+- ``final_state.npz``: every leaf of the final `State` (``state.u``, ``state.v``, ...);
+- ``summary.json``: the diagnostics of `PSTResult.summary` (timings included);
+- ``pst.png``: `damjax.plot.plot_pst` (unless ``[output] plot = false``);
+- ``checkpoint.npz`` while running with ``checkpoint_every``: all State leaves, the
+  per-chunk crack tips and snapshots so far, the number of chunks done and the scenario.
+  It is removed once the outputs are written.
+
+`resume` continues a checkpoint with `simulate_pst(state=..., start_chunk=...,
+history=...)`; chunks are the unit of work, so a resumed run repeats at most the chunks
+done since the last checkpoint and its results are bitwise those of an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time as _time
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from damjax import io, scenario
+from damjax.scenario import Scenario
+
+CHECKPOINT = "checkpoint.npz"
+RESULTS = "results.nc"
+SUMMARY = "summary.json"
+PLOT = "pst.png"
+FINAL_STATE = "final_state.npz"
+OUTPUTS = (RESULTS, SUMMARY, PLOT, FINAL_STATE)
+CHECKPOINT_FORMAT = "damjax-checkpoint/1"
+TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s")
+
+
+@dataclasses.dataclass
+class RunOutcome:
+    """What a run produced: the scenario, the `PSTResult` and the files written."""
+
+    scenario: Scenario
+    result: Any  # PSTResult
+    out_dir: Path
+    files: dict[str, Path]
+    summary: dict[str, Any]
+    resumed_from_chunk: int | None = None
+
+    @property
+    def fault(self) -> str | None:
+        return self.result.fault
+
+
+def default_out_dir(scn: Scenario) -> Path:
+    """``[output] dir`` or ``damjax-out/<name>`` in the working directory."""
+    return Path(scn.output.dir) if scn.output.dir else Path("damjax-out") / scn.name
+
+
+# --------------------------------------------------------------------------- checkpoints
+
+
+@dataclasses.dataclass
+class _Record:
+    chunk: int  # chunks done
+    fault: int
+    state: dict[str, np.ndarray]
+    tips: list[np.ndarray]
+    snaps: list[dict[str, np.ndarray]]
+
+
+class _Recorder:
+    """The `simulate_pst` callback: keeps a copy of the latest state (the next chunk
+    donates its buffers) and writes a checkpoint every ``every`` wall-clock seconds."""
+
+    def __init__(
+        self,
+        out_dir: Path,
+        scn: Scenario,
+        n_chunks: int,
+        every: float | None,
+        on_chunk: Callable[[int], None] | None,
+    ) -> None:
+        self.out_dir, self.scn, self.n_chunks = out_dir, scn, n_chunks
+        self.every, self.on_chunk = every, on_chunk
+        self.last: _Record | None = None
+        self.saved_chunk = -1
+        self.t_saved = _time.monotonic()
+
+    def __call__(self, c: int, state: Any, tips: list[Any], snaps: list[Any]) -> None:
+        self.last = _Record(
+            chunk=c + 1,
+            fault=int(state.fault),
+            state=io.tree_to_arrays(state, "state"),
+            tips=list(tips),
+            snaps=list(snaps),
+        )
+        if self.every is not None and _time.monotonic() - self.t_saved >= self.every:
+            self.save()
+        if self.on_chunk is not None:
+            self.on_chunk(c)
+
+    def save(self) -> bool:
+        """Write the latest record if it can be resumed (not faulted, not the end)."""
+        rec = self.last
+        if rec is None or rec.fault or rec.chunk >= self.n_chunks or rec.chunk == self.saved_chunk:
+            return False
+        arrays: dict[str, Any] = {
+            "format": np.array(CHECKPOINT_FORMAT),
+            "damjax_version": np.array(_version()),
+            "scenario": np.array(self.scn.to_toml()),
+            "chunk": np.array(rec.chunk, np.int64),
+            "n_chunks": np.array(self.n_chunks, np.int64),
+            "checkpoint_every": np.array(np.nan if self.every is None else self.every),
+            "tips": np.stack(rec.tips),
+        }
+        arrays.update(rec.state)
+        if rec.snaps:
+            for key in rec.snaps[0]:
+                arrays[f"snap.{key}"] = np.stack([np.asarray(s[key]) for s in rec.snaps])
+        io.write_npz(self.out_dir / CHECKPOINT, arrays)
+        self.saved_chunk = rec.chunk
+        self.t_saved = _time.monotonic()
+        return True
+
+
+def _version() -> str:
+    from damjax import __version__
+
+    return __version__
+
+
+def _prepare(scn: Scenario) -> tuple[Any, Any, Any, Any]:
+    """Layout, model and initial state of a scenario (x64 switched on for float64)."""
+    import jax
+
+    from damjax.scenarios import pst
+
+    if scn.setup.dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    layout = pst.make_layout(scn.params, scn.setup)
+    model, state = pst.build(scn.params, scn.setup, layout)
+    return pst, layout, model, state
+
+
+# --------------------------------------------------------------------------- running
+
+
+def run(
+    scn: Scenario | str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] | None = None,
+    *,
+    checkpoint_every: float | None = None,
+    progress: bool = False,
+    on_chunk: Callable[[int], None] | None = None,
+) -> RunOutcome:
+    """Run a scenario (object, file path or shipped name) and write its outputs.
+
+    Args:
+        scn: the scenario; a path or shipped name is loaded with `damjax.scenario.load`.
+        out_dir: output folder (default `default_out_dir`); our files in it are replaced.
+        checkpoint_every: write ``checkpoint.npz`` when this many wall-clock seconds have
+            passed since the last one (0: after every chunk; None: never). An interrupt
+            (KeyboardInterrupt) also writes one for the last completed chunk.
+        progress: tqdm progress bar (stderr).
+        on_chunk: ``on_chunk(chunk_index)`` after each chunk (and its checkpoint); an
+            exception raised there aborts the run.
+
+    Returns the `RunOutcome`; a runtime fault is reported in ``outcome.fault`` and the
+    outputs hold the run up to it. Invalid scenarios raise ValueError before compiling.
+    """
+    if not isinstance(scn, Scenario):
+        scn = scenario.load(scn)
+    out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
+    out.mkdir(parents=True, exist_ok=True)
+    io.remove_stale_temporaries(out)
+    for name in (CHECKPOINT, *OUTPUTS):  # never mix the files of two runs
+        (out / name).unlink(missing_ok=True)
+    from damjax.scenarios.pst import make_layout
+
+    n_chunks = make_layout(scn.params, scn.setup).n_chunks
+    rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
+    result = _simulate(scn, rec, progress)
+    return _finish(scn, out, result, rec, None)
+
+
+def resume(
+    out_dir: str | os.PathLike[str],
+    *,
+    checkpoint_every: float | None = -1.0,
+    progress: bool = False,
+    on_chunk: Callable[[int], None] | None = None,
+) -> RunOutcome:
+    """Continue the run checkpointed in ``out_dir`` and write the same outputs.
+
+    ``checkpoint_every`` defaults to the interval of the interrupted run (-1: keep it).
+    ValueError if there is no usable checkpoint.
+    """
+    out = Path(out_dir)
+    path = out / CHECKPOINT
+    if not path.is_file():
+        raise ValueError(
+            f"{out}: no {CHECKPOINT} to resume from (the run finished or never checkpointed)"
+        )
+    try:
+        ck = io.read_npz(path)
+    except (OSError, ValueError, EOFError) as exc:
+        raise ValueError(f"{path}: unreadable checkpoint ({exc})") from None
+    if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
+    try:
+        scn, chunk, state, tips, snaps = _read_checkpoint(path, ck)
+    except (KeyError, IndexError, TypeError) as exc:
+        raise ValueError(f"{path}: incomplete checkpoint (no {exc})") from None
+    if checkpoint_every is not None and checkpoint_every < 0:
+        saved = float(ck.get("checkpoint_every", np.nan))
+        checkpoint_every = None if np.isnan(saved) else saved
+    io.remove_stale_temporaries(out)
+    rec = _Recorder(out, scn, int(ck["n_chunks"]), checkpoint_every, on_chunk)
+    rec.saved_chunk = chunk
+    result = _simulate(scn, rec, progress, state=state, start_chunk=chunk, history=(tips, snaps))
+    return _finish(scn, out, result, rec, chunk)
+
+
+def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
+    """Scenario, chunks done, State, per-chunk tips and snapshots of a checkpoint."""
+    scn = scenario.loads(str(ck["scenario"]), warn=False)
+    if str(ck.get("damjax_version", "")) != _version():
+        warnings.warn(
+            f"{path} was written by damjax {ck.get('damjax_version')}, this is "
+            f"{_version()}: the resumed run may differ from an uninterrupted one",
+            stacklevel=3,
+        )
+    _, layout, _, template = _prepare(scn)
+    chunk = int(ck["chunk"])
+    if not 0 < chunk < layout.n_chunks or int(ck["n_chunks"]) != layout.n_chunks:
+        raise ValueError(
+            f"{path}: chunk {chunk} of {int(ck['n_chunks'])} does not fit this run's "
+            f"{layout.n_chunks} chunks"
+        )
+    state = io.arrays_to_tree(ck, template, "state")
+    tips = [np.asarray(t) for t in ck["tips"]]
+    if len(tips) != chunk:
+        raise ValueError(f"{path}: {len(tips)} chunks of crack tips for {chunk} chunks done")
+    keys = [k[len("snap.") :] for k in ck if k.startswith("snap.")]
+    snaps = [{k: ck[f"snap.{k}"][i] for k in keys} for i in range(chunk)] if keys else []
+    return scn, chunk, state, tips, snaps
+
+
+def _simulate(scn: Scenario, rec: _Recorder, progress: bool, **resume: Any) -> Any:
+    from damjax.scenarios.pst import simulate_pst
+
+    try:
+        return simulate_pst(scn.params, scn.setup, progress=progress, callback=rec, **resume)
+    except KeyboardInterrupt:
+        if rec.every is not None:
+            rec.save()
+        raise
+
+
+def _finish(
+    scn: Scenario, out: Path, result: Any, rec: _Recorder, resumed_from: int | None
+) -> RunOutcome:
+    from damjax import diagnostics
+
+    summary = dict(result.summary)
+    stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
+    attrs = {
+        "Conventions": "CF-1.10",
+        "title": f"damjax {scn.type} scenario {scn.name}",
+        "source": f"damjax {_version()}",
+        "damjax_version": _version(),
+        "scenario": scn.to_toml(),
+        "summary": io.to_json(stable),
+        "fault": result.fault,
+    }
+    ds = io.result_dataset(
+        result,
+        crack_speed=diagnostics.crack_speed(result.time, result.tip),
+        attrs=attrs,
+        snapshots=scn.output.snapshots,
+    )
+    files = {"results": out / RESULTS}
+    io.write_dataset(files["results"], ds)
+    if rec.last is not None:
+        files["final_state"] = out / FINAL_STATE
+        io.write_npz(files["final_state"], rec.last.state)
+    if scn.output.plot:
+        from damjax.plot import plot_pst
+
+        files["plot"] = out / PLOT
+        io.save_figure(plot_pst(result), files["plot"])
+    files["summary"] = out / SUMMARY
+    full = {
+        "scenario": scn.name,
+        "damjax_version": _version(),
+        **summary,
+        "resumed_from_chunk": resumed_from,
+        "out_dir": str(out),
+    }
+    io.write_json(files["summary"], full)
+    (out / CHECKPOINT).unlink(missing_ok=True)
+    return RunOutcome(scn, result, out, files, full, resumed_from)
+
+
+# --------------------------------------------------------------------------- reading back
+
+
+def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
+    """The scenario and a `PSTResult` rebuilt from ``results.nc`` alone."""
+    from damjax.scenarios.pst import PSTResult
+
+    path = Path(out_dir) / RESULTS
+    if not path.is_file():
+        raise ValueError(f"{out_dir}: no {RESULTS} (not a damjax output folder?)")
+    try:
+        ds = io.open_dataset(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: unreadable results ({exc})") from None
+    if "scenario" not in ds.attrs or "summary" not in ds.attrs:
+        raise ValueError(f"{path}: not written by damjax (no scenario/summary attributes)")
+    scn = scenario.loads(ds.attrs["scenario"], warn=False)
+    summary = json.loads(ds.attrs["summary"])
+    fields = io.dataset_fields(ds)
+    kwargs: dict[str, Any] = {}
+    for f in dataclasses.fields(PSTResult):
+        if f.name in fields:
+            kwargs[f.name] = fields[f.name]
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            # a field this file predates: NaN on x (plots draw nothing)
+            kwargs[f.name] = np.full(fields["x"].shape, np.nan, np.float32)
+    kwargs.update(
+        params=scn.params,
+        setup=scn.setup,
+        summary=summary,
+        fault=ds.attrs.get("fault"),
+        fractures=summary.get("slab_fractures", []),
+    )
+    result = PSTResult(**kwargs)
+    return scn, result
+
+
+def load_final_state(out_dir: str | os.PathLike[str]) -> Any:
+    """The final `State` of a finished run (``final_state.npz``)."""
+    scn, _ = load_result(out_dir)
+    _, _, _, template = _prepare(scn)
+    return io.arrays_to_tree(io.read_npz(Path(out_dir) / FINAL_STATE), template, "state")
+
+
+def show(
+    out_dir: str | os.PathLike[str], plot: str | os.PathLike[str] | None = None
+) -> tuple[dict[str, Any], Path]:
+    """Re-plot a finished run from its files; returns (summary, plot path).
+
+    The summary is ``summary.json`` when present, else the one stored in ``results.nc``.
+    """
+    from damjax.plot import plot_pst
+
+    _, result = load_result(out_dir)
+    target = Path(plot) if plot is not None else Path(out_dir) / PLOT
+    io.save_figure(plot_pst(result), target)
+    summary = result.summary
+    sfile = Path(out_dir) / SUMMARY
+    if sfile.is_file():
+        try:
+            summary = json.loads(sfile.read_text(encoding="utf-8"))
+        except ValueError:
+            pass
+    return summary, target

@@ -1,0 +1,278 @@
+"""`damjax run` / `resume` / `show`: outputs, checkpoints, restarts, runtime faults.
+
+A run interrupted at any moment (SIGKILL, SIGINT, an exception between chunks) and
+resumed from its checkpoint must give the results of an uninterrupted run: an identical
+results.nc (`xarray.Dataset.identical`) and a bitwise-equal final state.
+"""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import damjax
+from damjax import io, runner, scenario
+from damjax.cli import main
+
+# 10 m, dx 0.05 m, 3 s in chunks of 100 steps: ~160 chunks, about a second of stepping
+RESTART_TOML = """
+type = "pst"
+name = "restart"
+description = "small PST for the restart tests"
+
+[params]
+steady_length = 4.0
+strength_gradient = 3000.0
+
+[setup]
+length = 10.0
+dx = 0.05
+duration = 3.0
+chunk_steps = 100
+
+[output]
+plot = false
+"""
+
+
+@pytest.fixture(scope="module")
+def scn_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("scn") / "restart.toml"
+    path.write_text(RESTART_TOML)
+    return path
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory) -> dict:
+    """Subprocess environment: a private persistent compilation cache."""
+    cache = tmp_path_factory.mktemp("xla-cache")
+    return {**os.environ, "DAMJAX_CACHE_DIR": str(cache), "PYTHONUNBUFFERED": "1"}
+
+
+def assert_same_run(ref: Path, other: Path) -> None:
+    a = io.open_dataset(ref / runner.RESULTS)
+    b = io.open_dataset(other / runner.RESULTS)
+    assert a.identical(b)
+    sa, sb = io.read_npz(ref / runner.FINAL_STATE), io.read_npz(other / runner.FINAL_STATE)
+    assert list(sa) == list(sb)
+    for key in sa:
+        assert sa[key].dtype == sb[key].dtype, key
+        assert sa[key].tobytes() == sb[key].tobytes(), key  # bitwise
+    assert not (other / runner.CHECKPOINT).exists()
+
+
+def cli(*args: str, env: dict) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "damjax", *args], capture_output=True, text=True, env=env
+    )
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+def test_run_writes_outputs_and_show_replots(tmp_path, scn_file, capsys):
+    text = RESTART_TOML.replace("duration = 3.0", "duration = 0.5").replace(
+        "plot = false", "plot = true"
+    )
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["scenario"] == "restart" and summary["fault"] is None
+    assert summary["out_dir"] == str(out) and "wall_time_s" in summary
+    for name in (runner.RESULTS, runner.SUMMARY, runner.PLOT, runner.FINAL_STATE):
+        assert (out / name).is_file(), name
+    assert not (out / runner.CHECKPOINT).exists()
+
+    ds = io.open_dataset(out / runner.RESULTS)
+    assert ds.attrs["damjax_version"] == damjax.__version__
+    scn = scenario.loads(ds.attrs["scenario"], warn=False)
+    assert scn.to_toml() == scenario.loads(text).to_toml()  # the full scenario
+    stored = json.loads(ds.attrs["summary"])
+    assert not set(runner.TIMING_KEYS) & set(stored)  # no wall-clock in the NetCDF
+    for name in ("crack_tip", "crack_speed"):
+        assert ds[name].dims == ("time",)
+    for name in ("sigma_xx", "height", "slip", "u_max", "tau_peak"):
+        assert ds[name].dims == ("x",)
+    assert ds["snapshot_sigma_xx"].dims == ("chunk", "x")
+    for name, var in ds.variables.items():
+        assert var.attrs["units"] and var.attrs["long_name"], name
+    assert ds["x"].attrs["units"] == "m" and ds["sigma_xx"].attrs["units"] == "Pa"
+
+    png = tmp_path / "again.png"
+    assert main(["show", str(out), "--plot", str(png)]) == 0
+    shown = capsys.readouterr().out
+    assert "arrest_position_m" in shown and str(png) in shown
+    assert png.stat().st_size > 10_000
+    assert main(["show", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scenario"] == "restart"
+
+    assert main(["show", str(tmp_path / "nothing")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no results.nc" in err[0]
+    assert main(["resume", str(out)]) == 2  # finished: nothing to resume
+    assert "no checkpoint.npz" in capsys.readouterr().err
+
+
+def test_run_by_shipped_name_and_bad_arguments(tmp_path, capsys):
+    assert main(["run", "quik", "--out", str(tmp_path)]) == 2
+    assert "did you mean 'quick'" in capsys.readouterr().err
+    assert main(["run", "quick", "--checkpoint-every", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert "--checkpoint-every" in err and len(err.strip().splitlines()) == 1
+
+
+# --------------------------------------------------------------------------- restart
+
+
+def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
+    scn = scenario.load(scn_file)
+    ref = runner.run(scn, tmp_path / "ref")
+
+    def stop_after(k):
+        def hook(chunk):
+            if chunk == k:
+                raise KeyboardInterrupt
+
+        return hook
+
+    # no checkpointing asked: an interrupt leaves nothing to resume
+    with pytest.raises(KeyboardInterrupt):
+        runner.run(scn, tmp_path / "none", on_chunk=stop_after(5))
+    assert not (tmp_path / "none" / runner.CHECKPOINT).exists()
+
+    # a long interval: only the interrupt writes the checkpoint (after chunk 40)
+    out = tmp_path / "int"
+    with pytest.raises(KeyboardInterrupt):
+        runner.run(scn, out, checkpoint_every=1e9, on_chunk=stop_after(40))
+    ck = io.read_npz(out / runner.CHECKPOINT)
+    assert int(ck["chunk"]) == 41 and ck["tips"].shape == (41, 100)
+    assert str(ck["scenario"]) == scn.to_toml()
+    assert not (out / runner.RESULTS).exists()
+
+    # resume, interrupt again (every chunk checkpointed now), resume to the end
+    with pytest.raises(KeyboardInterrupt):
+        runner.resume(out, checkpoint_every=0, on_chunk=stop_after(77))
+    assert int(io.read_npz(out / runner.CHECKPOINT)["chunk"]) == 78
+    done = runner.resume(out)
+    assert done.resumed_from_chunk == 78
+    assert done.summary["resumed_from_chunk"] == 78
+    assert_same_run(ref.out_dir, out)
+    final = runner.load_final_state(out)
+    assert float(final.time) == pytest.approx(scn.setup.duration, rel=1e-3)  # float32 sum
+
+
+def _start(env: dict, *args: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "damjax", *args, "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+
+
+def _signal_after_checkpoint(proc: subprocess.Popen, ck: Path, sig: int) -> tuple[int, str]:
+    """Wait for a new checkpoint, then send ``sig`` at a random moment (the run still has
+    seconds of stepping left then); returns (exit status, stderr)."""
+    before = ck.stat().st_mtime_ns if ck.exists() else None
+    deadline = time.monotonic() + 120
+    while not ck.exists() or ck.stat().st_mtime_ns == before:
+        if proc.poll() is not None:
+            break
+        assert time.monotonic() < deadline, "no checkpoint written"
+        time.sleep(0.01)
+    time.sleep(random.uniform(0.0, 0.6))
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err
+
+
+def test_killed_runs_resume_identically(tmp_path, scn_file, env):
+    """SIGINT a run, SIGKILL its resumption, resume again: identical to an uninterrupted
+    run (computed at the same time in another process)."""
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    ref_proc = _start(env, "run", str(scn_file), "--out", str(ref))
+    ck = out / runner.CHECKPOINT
+    proc = _start(env, "run", str(scn_file), "--out", str(out), "--checkpoint-every", "0")
+    rc, err = _signal_after_checkpoint(proc, ck, signal.SIGINT)
+    assert rc == 130 and f"damjax resume {out}" in err and "Traceback" not in err, err
+    chunk = int(io.read_npz(ck)["chunk"])
+    assert chunk >= 1
+
+    proc = _start(env, "resume", str(out), "--checkpoint-every", "0")
+    rc, err = _signal_after_checkpoint(proc, ck, signal.SIGKILL)
+    assert rc == -signal.SIGKILL, err
+    assert int(io.read_npz(ck)["chunk"]) > chunk  # the resumed run had moved on
+
+    res = cli("resume", str(out), "--quiet", "--json", env=env)
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["resumed_from_chunk"] > chunk
+    assert ref_proc.wait(timeout=120) == 0, ref_proc.stderr.read()
+    assert_same_run(ref, out)
+
+
+# --------------------------------------------------------------------------- faults
+
+
+def test_fault_is_reported_with_time_and_results_are_kept(tmp_path, scn_file, monkeypatch, capsys):
+    """A NaN velocity injected into a checkpoint: the resumed run faults mid-run."""
+    scn = scenario.load(scn_file)
+    out = tmp_path / "run"
+
+    def stop(chunk):
+        if chunk == 9:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        runner.run(scn, out, checkpoint_every=1e9, on_chunk=stop)
+    ck = io.read_npz(out / runner.CHECKPOINT)
+    ck["state.v"] = np.full_like(ck["state.v"], np.nan)
+    io.write_npz(out / runner.CHECKPOINT, ck)
+
+    rc = main(["resume", str(out), "--quiet", "--json"])
+    captured = capsys.readouterr()
+    assert rc == 3
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in captured.err
+    assert err[0].startswith("damjax: run stopped at t = ") and "non-finite velocity" in err[0]
+    t_fault = float(err[0].split("t = ")[1].split()[0])
+    summary = json.loads(captured.out)
+    assert summary["fault"] == err[0][len("damjax: ") :]
+    ds = io.open_dataset(out / runner.RESULTS)
+    assert ds.attrs["fault"].startswith("run stopped at t = ")
+    assert ds.sizes["time"] == 10 * 100  # the history up to the fault
+    assert float(ds["time"][-1]) < t_fault
+    assert np.all(np.isfinite(ds["crack_tip"].values))
+    assert not (out / runner.CHECKPOINT).exists()
+
+
+def test_run_cli_fault_exits_nonzero(tmp_path, scn_file, monkeypatch, capsys):
+    """`damjax run` of a state that is broken from the start: exit 3, results written."""
+    from damjax.scenarios import pst
+
+    build = pst.build
+
+    def broken_build(*args, **kwargs):
+        model, state = build(*args, **kwargs)
+        return model, eqx.tree_at(lambda s: s.v, state, state.v + jnp.nan)
+
+    monkeypatch.setattr(pst, "build", broken_build)
+    out = tmp_path / "out"
+    rc = main(["run", str(scn_file), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 3
+    assert "damjax: run stopped at t = " in err and "Traceback" not in err
+    assert (out / runner.RESULTS).is_file() and (out / runner.SUMMARY).is_file()
+    assert json.loads((out / runner.SUMMARY).read_text())["fault"].startswith("run stopped")
