@@ -178,6 +178,135 @@ def pst_grad() -> None:
 
 
 @case
+def batch16() -> None:
+    """A vmapped batch of 16 full baseline PSTs (theta 200-950 Pa/m) vs 16 sequential runs."""
+    import jax.numpy as jnp
+
+    from damjax import PSTParams, PSTSetup, simulate_pst, sweep
+
+    setup = PSTSetup()
+    thetas = np.linspace(200.0, 950.0, 16)
+    seq_wall, seq_compile, seq_arrest = 0.0, 0.0, []
+    for th in thetas:
+        s = simulate_pst(PSTParams(strength_gradient=float(th)), setup).summary
+        seq_wall += s["wall_time_s"]
+        seq_compile += s["compile_time_s"]
+        seq_arrest.append(s["arrest_position_m"])
+    n_p, n_s = s["n_particles"], s["n_steps"]
+    emit(
+        case="batch16_sequential",
+        n_particles=n_p,
+        n_steps=n_s,
+        dtype=setup.dtype,
+        n_sims=16,
+        compile_time_s=round(seq_compile, 2),
+        wall_time_s=round(seq_wall, 3),
+        particle_steps_per_s=round(16 * n_p * n_s / seq_wall),
+    )
+    for batch_size in (None, 4):
+        res = sweep(
+            PSTParams(strength_gradient=jnp.asarray(thetas, jnp.float32)),
+            setup,
+            batch_size=batch_size,
+        )
+        wall = sum(r.summary["wall_time_s"] for r in res)  # per-member shares of the batch
+        pairs = zip([r.summary["arrest_position_m"] for r in res], seq_arrest, strict=True)
+        diff = max((abs(b - a) for b, a in pairs if a is not None and b is not None), default=0.0)
+        emit(
+            case="batch16_vmapped" if batch_size is None else "batch16_lax_map4",
+            n_particles=n_p,
+            n_steps=n_s,
+            dtype=setup.dtype,
+            n_sims=16,
+            compile_time_s=round(res[0].summary["compile_time_s"], 2),
+            wall_time_s=round(wall, 3),
+            particle_steps_per_s=round(16 * n_p * n_s / wall),
+            peer="sequential simulate_pst",
+            peer_particle_steps_per_s=round(16 * n_p * n_s / seq_wall),
+            ratio=round(seq_wall / wall, 3),
+            max_arrest_diff_vs_sequential_m=diff,
+        )
+
+
+@case
+def pst_grad_fd() -> None:
+    """Full-size gradients of the smooth arrest position vs central differences (2 steps)."""
+    import os
+
+    import jax
+
+    from damjax import PSTParams, PSTSetup
+    from damjax.scenarios import pst
+
+    dtype = os.environ.get("DAMJAX_BENCH_DTYPE", "float64")
+    if dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    setup = PSTSetup(dtype=dtype)
+    for base in (PSTParams(softening=1.0), PSTParams()):
+        layout = pst.make_layout(base, setup)  # fixed step count for every perturbation
+        fwd = jax.jit(lambda q, lay=layout: pst.arrest_position_smooth(q, setup, lay))
+        grad = jax.jit(jax.grad(lambda q, lay=layout: pst.arrest_position_smooth(q, setup, lay)))
+        g = grad(base)
+        for name in ("strength_gradient", "softening"):
+            x0 = float(getattr(base, name))
+            if x0 == 0.0:
+                continue  # delta = 0 is the edge of the valid range: no central difference
+            ad = float(getattr(g, name))
+            for rel in (0.005, 0.01):
+                h = rel * x0
+                up = float(fwd(eqx_replace(base, name, x0 + h)))
+                dn = float(fwd(eqx_replace(base, name, x0 - h)))
+                fd = (up - dn) / (2 * h)
+                emit(
+                    case="pst_grad_fd",
+                    dtype=dtype,
+                    field=name,
+                    at=x0,
+                    softening=float(base.softening),
+                    rel_step=rel,
+                    ad=ad,
+                    fd=fd,
+                    rel_error=abs(ad - fd) / max(abs(fd), 1e-12),
+                    arrest_position_smooth_m=float(fwd(base)),
+                    n_particles=layout.n_particles,
+                    n_steps=layout.n_steps,
+                )
+
+
+def eqx_replace(params, name: str, value: float):
+    """`params` with one field replaced (keeps the leaf dtype)."""
+    import dataclasses
+
+    return dataclasses.replace(params, **{name: value})
+
+
+@case
+def surrogate_table() -> None:
+    """Smooth arrest surrogate vs event-based L_ca, elastic baseline, theta 200-5000 Pa/m."""
+    import jax.numpy as jnp
+
+    from damjax import PSTParams, PSTSetup, sweep
+
+    thetas = [200.0, 300.0, 500.0, 1000.0, 2000.0, 5000.0]
+    setup = PSTSetup()
+    res = sweep(PSTParams(strength_gradient=jnp.asarray(thetas, jnp.float32)), setup)
+    for th, r in zip(thetas, res, strict=True):
+        s = r.summary
+        a, sm = s["arrest_position_m"], s["arrest_position_smooth_m"]
+        emit(
+            case="surrogate_table",
+            theta=th,
+            arrested=s["arrested"],
+            arrest_position_m=a,
+            arrest_position_smooth_m=sm,
+            difference_m=None if a is None else sm - a,
+            n_particles=s["n_particles"],
+            n_steps=s["n_steps"],
+            dtype=setup.dtype,
+        )
+
+
+@case
 def mpm88() -> None:
     """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers vs Taichi CPU."""
     from benchmarks import mpm88 as m
