@@ -51,6 +51,19 @@ def test_gradient_matches_central_differences_at_two_steps(smooth_fn, name):
         assert abs(fd / ad - 1) <= 0.05, (name, rel, ad, fd)
 
 
+def test_tensile_strength_gradient_matches_central_differences(smooth_fn):
+    """sigma_t where the slab yields (MCC) but does not fracture: the arrest moves smoothly."""
+    f, g = smooth_fn
+    q = dataclasses.replace(PARAMS, tensile_strength=4200.0)
+    ad = float(g(q).tensile_strength)
+    assert ad > 0.0  # a stronger slab carries more tension: the crack runs further
+    for rel in (2.5e-3, 5e-3):
+        h = rel * 4200.0
+        fd = (float(f(dataclasses.replace(q, tensile_strength=4200.0 + h)))
+              - float(f(dataclasses.replace(q, tensile_strength=4200.0 - h)))) / (2 * h)
+        assert abs(fd / ad - 1) <= 0.05, (rel, ad, fd)
+
+
 def test_gradient_is_finite_for_every_finite_field_with_an_infinite_one(smooth_fn):
     _, g = smooth_fn
     assert math.isinf(PARAMS.tensile_strength)
