@@ -313,6 +313,53 @@ def _surrogate_rows(thetas, res, setup) -> None:
         )
 
 
+_SLOPE_KEYS = (
+    "upslope_arrest_distance_m",
+    "upslope_arrest_position_m",
+    "arrested_before_top",
+    "crossslope_extent_m",
+    "upslope_crack_speed_over_cs",
+    "crossslope_crack_speed_over_cs",
+    "release_area_m2",
+    "crown_area_m2",
+    "stauchwall_area_m2",
+    "slab_fracture_area_m2",
+    "critical_cut_radius_m",
+    "start_m",
+    "fault",
+)
+
+
+def slope_row(case_name: str, case) -> dict:
+    """One JSON row of a generic-slope run (`damjax.scenarios.generic_slope`)."""
+    from damjax.scenarios.generic_slope import run_generic_slope
+
+    s = run_generic_slope(case).summary
+    return dict(
+        case=case_name,
+        n_particles=s["n_particles"],
+        n_steps=s["n_steps"],
+        dtype=case.dtype,
+        dx=case.dx,
+        particles_per_cell=case.particles_per_cell,
+        compile_time_s=round(s["compile_time_s"], 3),
+        wall_time_s=round(s["wall_time_s"], 3),
+        particle_steps_per_s=round(s["particle_steps_per_s"]),
+        **{k: s.get(k) for k in _SLOPE_KEYS},
+    )
+
+
+@case
+def slope() -> None:
+    """Paper Fig. 12a: 50 m x 60 m generic slope, GRF 20 Pa/m, dx 0.2 m, 2 s (seed 0)."""
+    import os
+
+    from damjax.scenarios.generic_slope import GenericSlopeCase
+
+    ppc = int(os.environ.get("DAMJAX_BENCH_PPC", "1"))
+    emit(**slope_row("slope", GenericSlopeCase(particles_per_cell=ppc)))
+
+
 @case
 def mpm88() -> None:
     """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers vs Taichi CPU."""
