@@ -948,8 +948,16 @@ def load_strength_profile(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
     return x, cols["tau_peak_pa"]
 
 
-def load_strength_map(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read a strength map on a regular grid from a CSV file (columns x_m, y_m, tau_peak_pa).
+def load_strength_map(
+    path: str | os.PathLike, **kwargs
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Read a strength map on a regular grid: CSV (columns x_m, y_m, tau_peak_pa), NetCDF
+    (.nc) or GeoTIFF (.tif, needs rasterio), chosen by the suffix.
+
+    NetCDF and GeoTIFF go through the DEM readers (`damjax.terrain.load_netcdf`,
+    `damjax.terrain.load_geotiff`, same conventions: metric coordinates, north-up rasters,
+    nodata as NaN); keyword arguments go to them (``variable=``, ``band=``). The values
+    are tau_p [Pa].
 
     Rows may come in any order but must fill a complete grid, each node once; tau_peak_pa
     must be >= 0. Errors are one-line ValueErrors naming the file and line.
@@ -958,6 +966,14 @@ def load_strength_map(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, 
         ``(x, y, tau)``: node coordinates x (nx,) and y (ny,) [m], ascending, and tau_p
         (nx, ny) [Pa], indexed ``[ix, iy]``.
     """
+    suffix = os.path.splitext(os.fspath(path))[1].lower()
+    if suffix in (".nc", ".nc4", ".cdf", ".netcdf", ".tif", ".tiff", ".gtiff"):
+        from damjax import terrain
+
+        ter = terrain.load_dem(path, **kwargs)
+        if np.any(ter.z[np.isfinite(ter.z)] < 0):
+            raise ValueError(f"{os.fspath(path)}: negative strength values")
+        return ter.x, ter.y, ter.z
     names = ("x_m", "y_m", "tau_peak_pa")
     cols, linenos, index = _read_csv(path, names)
     _check_nonnegative(path, cols, ("tau_peak_pa",), linenos, index)
@@ -980,3 +996,49 @@ def load_strength_map(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, 
             f"{xs.size} x {ys.size} grid"
         )
     return xs, ys, tau
+
+
+def map_on_grid(
+    x: ArrayLike, y: ArrayLike, tau: ArrayLike, xq: ArrayLike, yq: ArrayLike
+) -> np.ndarray:
+    """A strength map (nodes x (nx,), y (ny,) [m], tau (nx, ny) [Pa]) on another grid.
+
+    Bilinear interpolation at the nodes ``xq`` (mx,), ``yq`` (my,) [m] (e.g. the cell
+    centres of a slope run, `damjax.scenarios.slope.simulate_slope`'s ``tau_peak``);
+    points beyond the map take the value of its nearest edge (constant extrapolation).
+
+    Returns:
+        tau_p (mx, my) [Pa].
+    """
+    from damjax.terrain import Terrain
+
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    xq = np.clip(np.asarray(xq, dtype=float), x[0], x[-1])
+    yq = np.clip(np.asarray(yq, dtype=float), y[0], y[-1])
+    return Terrain(x, y, np.asarray(tau, dtype=float)).resample(xq, yq).z
+
+
+def transect(
+    x: ArrayLike,
+    y: ArrayLike,
+    tau: ArrayLike,
+    start: Sequence[float],
+    end: Sequence[float],
+    num: int = 101,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sample a strength map along the straight line from ``start`` to ``end`` (x, y) [m].
+
+    For a slope-parallel transect pass points of equal y. The result feeds
+    `fit_linear_profile` / `fit_power_law_profile` (the paper's in-situ gradients).
+
+    Returns:
+        ``(s, tau)``: distance from ``start`` (num,) [m] and bilinear tau_p (num,) [Pa].
+    """
+    from damjax.terrain import Terrain
+
+    t = np.linspace(0.0, 1.0, int(num))
+    px = start[0] + t * (end[0] - start[0])
+    py = start[1] + t * (end[1] - start[1])
+    ter = Terrain(np.asarray(x, float), np.asarray(y, float), np.asarray(tau, float))
+    return t * float(np.hypot(end[0] - start[0], end[1] - start[1])), ter.sample(px, py)
