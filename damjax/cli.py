@@ -21,9 +21,10 @@ import sys
 import warnings
 from typing import Any
 
-from damjax.config import PSTParams, PSTSetup
+from damjax.config import PSTParams, PSTSetup, setup_problems
 
 _PARAM_FIELDS = [f.name for f in dataclasses.fields(PSTParams)]
+_SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n != "strength_profile"]
 _SETUP_FIELDS = [
     "length",
     "dx",
@@ -71,7 +72,7 @@ def _enable_compilation_cache() -> None:
 def _add_pst_flags(p: argparse.ArgumentParser) -> None:
     defaults_p, defaults_s = PSTParams(), PSTSetup()
     g = p.add_argument_group("physical parameters (SI units; defaults: paper baseline)")
-    for name in _PARAM_FIELDS:
+    for name in _SCALAR_PARAM_FIELDS:
         g.add_argument(
             "--" + name.replace("_", "-"),
             dest=name,
@@ -79,6 +80,24 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
             default=getattr(defaults_p, name),
             help=f"default {getattr(defaults_p, name)}",
         )
+    g.add_argument(
+        "--strength-profile",
+        dest="strength_profile",
+        metavar="FILE.csv",
+        default=None,
+        help="weak-layer strength from a CSV (columns x_m, tau_peak_pa); replaces "
+        "--tau-peak/--steady-length/--strength-gradient as tau_p(x) along the PST "
+        "(see --strength-fit)",
+    )
+    g.add_argument(
+        "--strength-fit",
+        dest="strength_fit",
+        choices=("none", "linear", "power_law"),
+        default="none",
+        help="none (default): the CSV is tau_p(x) along the PST; linear/power_law: the CSV "
+        "is a measured transect, fitted, shifted to --tau-peak at --steady-length and "
+        "extrapolated over the PST (paper Figs. 10-11)",
+    )
     g = p.add_argument_group("numerics")
     for name in _SETUP_FIELDS:
         typ = str if name in _STR_FIELDS else _number
@@ -116,14 +135,41 @@ def _print_summary(summary: dict[str, Any]) -> None:
         print(f"{k:34s} {v}")
 
 
+def _with_strength_profile(params: PSTParams, setup: PSTSetup, path: str, fit: str) -> PSTParams:
+    """``params`` with ``strength_profile`` read from a CSV (`fields.pst_strength_profile`),
+    on one point per grid node of the PST; ValueError (one line) on a bad file."""
+    from damjax import fields
+
+    problems = setup_problems(setup)
+    if problems:  # the grid is needed to sample the profile: report the setup first
+        raise ValueError("\n".join(problems))
+    num = max(2, int(round(float(setup.length) / float(setup.dx))) + 1)
+    try:
+        prof = fields.pst_strength_profile(
+            path,
+            float(setup.length),
+            num,
+            fit=fit,
+            steady_length=float(params.steady_length),
+            tau_peak=float(params.tau_peak),
+        )
+    except FileNotFoundError:
+        raise ValueError(f"--strength-profile {path}: no such file") from None
+    except ValueError as exc:
+        raise ValueError(f"--strength-profile {exc}") from None
+    return dataclasses.replace(params, strength_profile=prof)
+
+
 def cmd_pst(ns: argparse.Namespace) -> int:
     from damjax.scenarios.pst import simulate_pst
 
-    params = PSTParams(**{name: getattr(ns, name) for name in _PARAM_FIELDS})
+    params = PSTParams(**{name: getattr(ns, name) for name in _SCALAR_PARAM_FIELDS})
     setup = _setup_from(ns)
     _enable_compilation_cache()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        if ns.strength_profile is not None:
+            params = _with_strength_profile(params, setup, ns.strength_profile, ns.strength_fit)
         result = simulate_pst(params, setup, progress=not ns.quiet)
     for w in caught:
         if issubclass(w.category, UserWarning):

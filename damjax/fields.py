@@ -948,6 +948,59 @@ def load_strength_profile(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
     return x, cols["tau_peak_pa"]
 
 
+PROFILE_FITS = ("none", "linear", "power_law")
+
+
+def pst_strength_profile(
+    path: str | os.PathLike,
+    length: float,
+    num: int,
+    *,
+    fit: str = "none",
+    steady_length: float = 20.0,
+    tau_peak: float = 1000.0,
+) -> np.ndarray:
+    """A CSV strength transect as the ``strength_profile`` array of `damjax.PSTParams`.
+
+    The CSV is read with `load_strength_profile` (columns x_m, tau_peak_pa; one-line
+    errors). With ``fit="none"`` the values are tau_p along the PST itself: x_m is the
+    PST coordinate [m], tau_p is linearly interpolated between the rows and held at the
+    first/last value beyond them. With ``fit="linear"`` or ``"power_law"`` the file is a
+    measured transect: the fit (`fit_linear_profile`, `fit_power_law_profile`) is shifted
+    to tau_p = ``tau_peak`` at L_ss and extrapolated over the PST (`pst_profile`, the
+    paper's in-situ workflow, Figs. 10-11).
+
+    Args:
+        path: CSV file.
+        length: PST length L [m].
+        num: number of equally spaced points spanning [0, L] (>= 2).
+        fit: "none", "linear" or "power_law".
+        steady_length: L_ss [m] (fits only).
+        tau_peak: tau_p on [0, L_ss] [Pa] (fits only).
+
+    Returns:
+        tau_p at ``np.linspace(0, length, num)`` [Pa], float64.
+    """
+    if fit not in PROFILE_FITS:
+        raise ValueError(
+            f"strength profile fit {fit!r}: must be one of {{{', '.join(PROFILE_FITS)}}}"
+        )
+    x, tau = load_strength_profile(path)
+    xs = np.linspace(0.0, float(length), int(num))
+    if fit == "none":
+        if x[0] > 0.0 or x[-1] < float(length):
+            import warnings
+
+            warnings.warn(
+                f"{os.fspath(path)}: x_m covers [{x[0]:g}, {x[-1]:g}] m of the "
+                f"[0, {float(length):g}] m PST; tau_p is held constant beyond",
+                stacklevel=2,
+            )
+        return np.interp(xs, x, tau)
+    fitted = fit_linear_profile(x, tau) if fit == "linear" else fit_power_law_profile(x, tau)
+    return pst_profile(fitted, xs, steady_length=steady_length, tau_peak=tau_peak)
+
+
 def load_strength_map(
     path: str | os.PathLike, **kwargs
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

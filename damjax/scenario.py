@@ -43,6 +43,14 @@ Format (SI units throughout; angles in degrees)::
     width = 0.3                   # strip width for dim = 2 [m]
     p0_rule = "paper"             # "paper" or "uniaxial"
 
+    [strength]                    # optional: tau_p from a CSV (columns x_m, tau_peak_pa)
+    file = "profile.csv"          # relative to the scenario file's folder
+    fit = "none"                  # "none": the CSV is tau_p(x) along the PST (interpolated);
+                                  # "linear" / "power_law": a measured transect, fitted,
+                                  # shifted to params.tau_peak at params.steady_length and
+                                  # extrapolated over the PST (paper Figs. 10-11)
+    points = 5001                 # optional: samples over [0, L] (default L/dx + 1)
+
     [output]                      # optional
     dir = "damjax-out/NAME"       # output folder (relative to the working directory)
     plot = true                   # write pst.png
@@ -53,6 +61,10 @@ the reverse (``chunk_steps = 50.0`` is an error); ``inf`` is a valid TOML float 
 the range allows it (strengths); ``nan`` never is. A parameter field that is not a
 scalar in `PSTParams` (an array such as a strength profile) takes a number or a TOML
 array of numbers. Unknown keys are errors, with a "did you mean" suggestion.
+
+A ``[strength]`` table is resolved when the scenario is read: the result holds the
+sampled ``params.strength_profile`` array (so `Scenario.to_toml` writes that array, and
+no longer needs the file); it cannot be combined with ``params.strength_profile``.
 
 Shipped scenarios live in ``damjax/scenarios/library/*.toml``; `shipped()` lists them
 and `load` accepts a file path or a shipped name (``damjax run quick``).
@@ -81,7 +93,8 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 SCENARIO_TYPES = ("pst",)
-TOP_KEYS = ("type", "name", "description", "params", "setup", "output")
+TOP_KEYS = ("type", "name", "description", "params", "setup", "output", "strength")
+STRENGTH_KEYS = ("file", "fit", "points")
 SECTIONS = ("params", "setup", "output")
 MAX_PARTICLES = 50_000_000  # beyond this a run cannot be allocated on one device
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -198,21 +211,31 @@ def load(name_or_path: str | Path, *, warn: bool = True) -> Scenario:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot read: {exc}") from None
-    return loads(text, warn=warn)
+    return loads(text, warn=warn, base_dir=path.parent)
 
 
-def loads(text: str, *, warn: bool = True) -> Scenario:
-    """Parse and validate TOML text; ValueError (one line per problem) on problems."""
+def loads(text: str, *, warn: bool = True, base_dir: str | Path | None = None) -> Scenario:
+    """Parse and validate TOML text; ValueError (one line per problem) on problems.
+
+    ``base_dir``: folder that relative ``[strength] file`` paths are taken from (default:
+    the working directory; `load` passes the scenario file's folder).
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError("invalid TOML: " + " ".join(str(exc).split())) from None
-    return parse(data, warn=warn)
+    return parse(data, warn=warn, base_dir=base_dir)
 
 
-def parse(data: dict[str, Any], *, warn: bool = True) -> Scenario:
-    """Validate a scenario given as a dict (as read by `tomllib`); ValueError on problems."""
-    scn, problems, notes = _check(data)
+def parse(
+    data: dict[str, Any], *, warn: bool = True, base_dir: str | Path | None = None
+) -> Scenario:
+    """Validate a scenario given as a dict (as read by `tomllib`); ValueError on problems.
+
+    A ``[strength]`` table is resolved here into ``params.strength_profile`` (relative
+    file paths from ``base_dir``, default the working directory).
+    """
+    scn, problems, notes = _check(data, base_dir)
     if problems:
         raise ValueError("\n".join(problems))
     assert scn is not None
@@ -424,7 +447,9 @@ def _as_float_or(value: Any) -> Any:
         return value
 
 
-def _check(data: Any) -> tuple[Scenario | None, list[str], list[str]]:
+def _check(
+    data: Any, base_dir: str | Path | None = None
+) -> tuple[Scenario | None, list[str], list[str]]:
     """(scenario or None, problems, dubious-value notes) of a scenario dict."""
     problems: list[str] = []
     if not isinstance(data, dict):
@@ -458,6 +483,13 @@ def _check(data: Any) -> tuple[Scenario | None, list[str], list[str]]:
     reported = {f"params.{k}" for k in pbad} | {f"setup.{k}" for k in sbad}
     params = PSTParams(**pvals)
     setup = PSTSetup(**svals)
+    strength_notes: list[str] = []
+    if "strength" in data:
+        prof, strength_notes = _strength_profile(
+            data["strength"], params, setup, "strength_profile" in pvals, base_dir, problems
+        )
+        if prof is not None:
+            params = dataclasses.replace(params, strength_profile=prof)
     # field ranges and consistency (config's rules), as validate() orders them
     sprob = config.setup_problems(setup)
     if sprob:
@@ -479,7 +511,88 @@ def _check(data: Any) -> tuple[Scenario | None, list[str], list[str]]:
         output=Output(**ovals),
         type=kind,
     )
-    return scn, [], _dubious(params, setup, pgiven)
+    return scn, [], strength_notes + _dubious(params, setup, pgiven)
+
+
+def _strength_profile(
+    table: Any,
+    params: PSTParams,
+    setup: PSTSetup,
+    has_profile: bool,
+    base_dir: str | Path | None,
+    problems: list[str],
+) -> tuple[np.ndarray | None, list[str]]:
+    """The ``[strength]`` table as a ``strength_profile`` array (None on problems).
+
+    Keys: ``file`` (CSV with columns x_m, tau_peak_pa; relative to ``base_dir``), ``fit``
+    ("none": the CSV is tau_p along the PST; "linear"/"power_law": a measured transect
+    fitted, shifted to params.tau_peak at params.steady_length and extrapolated, see
+    `damjax.fields.pst_strength_profile`), ``points`` (samples over [0, L]; default one
+    per grid node).
+    """
+    from damjax import fields
+
+    if not isinstance(table, dict):
+        problems.append(f"strength = {_fmt(table)}: must be a table ([strength])")
+        return None, []
+    n0 = len(problems)
+    for key in table:
+        if key not in STRENGTH_KEYS:
+            hit = difflib.get_close_matches(key, STRENGTH_KEYS, n=1)
+            more = (
+                f" (did you mean 'strength.{hit[0]}'?)"
+                if hit
+                else f" (valid: {', '.join(STRENGTH_KEYS)})"
+            )
+            problems.append(f"strength.{key}: unknown key{more}")
+    if has_profile:
+        problems.append("strength: give either [strength] or params.strength_profile, not both")
+    file = table.get("file")
+    if "file" not in table:
+        problems.append("strength.file: missing (a CSV with columns x_m, tau_peak_pa)")
+    elif not isinstance(file, str) or not file:
+        problems.append(f"strength.file = {_fmt(file)}: must be a path (a string)")
+    fit = table.get("fit", "none")
+    if fit not in fields.PROFILE_FITS:
+        valid = "{" + ", ".join(f'"{c}"' for c in fields.PROFILE_FITS) + "}"
+        problems.append(f"strength.fit = {_fmt(fit)}: must be one of {valid}")
+    points = table.get("points")
+    if points is not None and (
+        not isinstance(points, int) or isinstance(points, bool) or points < 2
+    ):
+        problems.append(f"strength.points = {_fmt(points)}: must be an integer >= 2")
+    if len(problems) > n0 or config.setup_problems(setup):
+        return None, []
+    for name in ("tau_peak", "steady_length"):
+        v = getattr(params, name)
+        if np.ndim(v) != 0 or math.isnan(float(v)):
+            return None, []  # reported by the params checks
+    path = Path(file)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    num = points if points is not None else max(2, int(round(setup.length / setup.dx)) + 1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            prof = fields.pst_strength_profile(
+                path,
+                setup.length,
+                num,
+                fit=fit,
+                steady_length=float(params.steady_length),
+                tau_peak=float(params.tau_peak),
+            )
+        except FileNotFoundError:
+            problems.append(f"strength.file = {_fmt(file)}: no such file ({path})")
+            return None, []
+        except (OSError, UnicodeDecodeError) as exc:
+            problems.append(f"strength.file = {_fmt(file)}: cannot read: {exc}")
+            return None, []
+        except ValueError as exc:
+            problems.append(f"strength.file = {_fmt(file)}: {exc}")
+            return None, []
+    notes = [f"strength.file = {_fmt(file)}: {w.message}" for w in caught]
+    return prof, notes
 
 
 def _size_problems(params: PSTParams, setup: PSTSetup) -> list[str]:
