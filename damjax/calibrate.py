@@ -157,6 +157,7 @@ def invert(
     steps: int = 60,
     learning_rate: float = 0.05,
     progress: bool = False,
+    smooth_width: float | None = None,
 ) -> Inversion:
     """Recover ``fields`` of `PSTParams` from observed arrest positions [m].
 
@@ -166,6 +167,8 @@ def invert(
     the logarithms of the fields (positivity), gradients through the full solver
     (`damjax.arrest_position_smooth`). One observation cannot identify two fields: the
     returned Gauss-Newton Hessian then is singular (condition number inf).
+    ``smooth_width``: damage-ramp width of the surrogate (default
+    `damjax.diagnostics.SMOOTH_WIDTH`); use 0.5 where slab fractures stop the crack.
     """
     from damjax.scenarios import pst
 
@@ -178,7 +181,7 @@ def invert(
         fitted = {f: jnp.exp(x[i]) for i, f in enumerate(fields)}
         return jnp.stack(
             [pst.arrest_position_smooth(dataclasses.replace(params0, **{**o, **fitted}),
-                                        setup, layout) for o in over]
+                                        setup, layout, width=smooth_width) for o in over]
         )
 
     def loss(x: Any) -> Any:

@@ -399,22 +399,24 @@ def run_pure(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model,
 
 
 def arrest_position_smooth(
-    params: PSTParams, setup: PSTSetup, layout: Layout | None = None
+    params: PSTParams, setup: PSTSetup, layout: Layout | None = None, *, width: float | None = None
 ) -> Any:
     """Differentiable smooth arrest position [m] of a PST (a JAX scalar).
 
     ``jax.grad(arrest_position_smooth)(params, setup)`` gives its gradient with respect
     to every field of `PSTParams`. Pass ``layout`` (from `make_layout` on concrete
     parameters) when calling under `jax.jit`/`jax.vmap` with traced parameters.
+    ``width``: relative width of the damage ramp (default
+    `damjax.diagnostics.SMOOTH_WIDTH`; see `damjax.diagnostics.smooth_arrest_position`).
     """
     if layout is None:
         validate(params, setup)
         layout = make_layout(params, setup)
     model, final, _ = run_pure(params, setup, layout)
-    return diagnostics_smooth(model, final)
+    return diagnostics_smooth(model, final, width)
 
 
-def diagnostics_smooth(model: Model, final: State) -> Any:
-    from damjax.diagnostics import smooth_arrest_position
+def diagnostics_smooth(model: Model, final: State, width: float | None = None) -> Any:
+    from damjax.diagnostics import SMOOTH_WIDTH, smooth_arrest_position
 
-    return smooth_arrest_position(model, final)
+    return smooth_arrest_position(model, final, SMOOTH_WIDTH if width is None else width)
