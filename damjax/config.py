@@ -23,6 +23,7 @@ G_ACC = 9.81  # gravitational acceleration [m/s^2]
 LATERAL_CONDITIONS = ("free", "constrained")
 DTYPES = ("float32", "float64")
 P0_RULES = ("paper", "uniaxial")
+MCC_INVARIANTS = ("3d", "plane")
 
 
 class PSTParams(eqx.Module):
@@ -99,7 +100,11 @@ class PSTSetup:
         dim: 1 for the width-uniform strip (default), 2 to run the 2D step on a strip.
         width: strip width for ``dim=2`` with free edges [m] (the paper's 0.3 m).
         p0_rule: how p0 follows from the tensile strength: "paper" (Eq. 6 as printed;
-            uniaxial tension yields at ~0.62 sigma_t) or "uniaxial" (yields at sigma_t).
+            uniaxial tension yields at 0.534 sigma_t with the "3d" invariants) or
+            "uniaxial" (yields at sigma_t).
+        mcc_invariants: stress invariants of the MCC yield function: "3d" (p = -tr/3 and
+            the 3D von Mises q of the plane-stress tensor, sigma_zz = 0; the default) or
+            "plane" (invariants of the 2D in-plane tensor). See `damjax.materials.mcc`.
     """
 
     length: float = 100.0
@@ -114,6 +119,7 @@ class PSTSetup:
     dim: int = 1
     width: float = 0.3
     p0_rule: str = "paper"
+    mcc_invariants: str = "3d"
 
 
 # field name -> (CLI flag, check, description of the valid range)
@@ -273,6 +279,12 @@ def setup_problems(setup: PSTSetup) -> list[str]:
         )
     if setup.p0_rule not in P0_RULES:
         problems.append(_problem("p0_rule", setup.p0_rule, "{" + ", ".join(P0_RULES) + "}"))
+    if getattr(setup, "mcc_invariants", "3d") not in MCC_INVARIANTS:
+        problems.append(
+            _problem(
+                "mcc_invariants", setup.mcc_invariants, "{" + ", ".join(MCC_INVARIANTS) + "}"
+            )
+        )
     if setup.dtype not in DTYPES:
         problems.append(_problem("dtype", setup.dtype, "{" + ", ".join(DTYPES) + "}"))
     if not isinstance(setup.controlled, bool):

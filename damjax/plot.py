@@ -56,8 +56,11 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     if np.isfinite(st):
         from damjax.materials import mcc
 
-        p0 = mcc.p0_from_tensile_strength(st, float(p.mcc_m), float(p.mcc_beta), s.p0_rule)
-        st_eff = float(mcc.uniaxial_strengths(p0, float(p.mcc_m), float(p.mcc_beta))[0])
+        inv = getattr(s, "mcc_invariants", "3d")
+        p0 = mcc.p0_from_tensile_strength(
+            st, float(p.mcc_m), float(p.mcc_beta), s.p0_rule, inv
+        )
+        st_eff = float(mcc.uniaxial_strengths(p0, float(p.mcc_m), float(p.mcc_beta), inv)[0])
         ax.axhline(st, color="tab:red", ls="--", label=r"$\sigma_t$")
         if abs(st_eff - st) > 1e-3 * st:
             ax.axhline(st_eff, color="tab:red", ls=":", label="uniaxial yield")
@@ -95,13 +98,14 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
 
 def plot_slope(result: Any, path: str | None = None) -> Any:
     """Maps of a slope-scale release: column height with the crown (h < 0.98 h0, blue)
-    and the stauchwall (h > 1.02 h0, red), crack arrival time, weak-layer strength."""
+    and the stauchwall (h > 1.02 h0, red), crack arrival time [s], local crack speed
+    over c_s (`damjax.slope_scenario.crack_speed_map`), weak-layer strength [Pa]."""
     plt = _plt()
     from matplotlib.colors import ListedColormap
 
     h0 = float(result.params.thickness)
     ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
-    fig, axes = plt.subplots(1, 3, figsize=(13, 5.5), constrained_layout=True)
+    fig, axes = plt.subplots(1, 4, figsize=(17, 5.5), constrained_layout=True)
     ax = axes[0]
     broken = np.isfinite(result.arrival_time)
     ax.imshow(broken, origin="lower", extent=ext, cmap=ListedColormap(["white", "0.85"]),
@@ -125,17 +129,32 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     ax.plot([y0], [x0], "k*", ms=12)
     ax.set_xlabel("y across [m]")
     ax = axes[2]
+    from damjax import theory
+    from damjax.slope_scenario import crack_speed_map
+
+    cs = float(theory.shear_wave_speed(result.params))
+    im = ax.imshow(crack_speed_map(result) / cs, origin="lower", extent=ext, cmap="plasma",
+                   vmin=0.0, vmax=2.0, aspect="equal")
+    fig.colorbar(im, ax=ax, shrink=0.8, label=r"local crack speed / $c_s$")
+    ax.plot([y0], [x0], "k*", ms=12)
+    ax.set_xlabel("y across [m]")
+    ax = axes[3]
     im = ax.imshow(result.tau_peak, origin="lower", extent=ext, cmap="magma", aspect="equal")
     fig.colorbar(im, ax=ax, shrink=0.8, label=r"weak-layer strength $\tau_p$ [Pa]")
     ax.contour(result.y, result.x, result.slope_deg, colors="w", linewidths=0.6)
     ax.set_xlabel("y across [m]")
     ax.set_title("strength, slope-angle contours (white)", fontsize=9)
     s = result.summary
+
+    def num(key: str, fmt: str) -> str:
+        v = s.get(key)
+        return "n/a" if v is None or not np.isfinite(v) else format(v, fmt)
+
     fig.suptitle(
-        f"up-slope arrest {s['upslope_arrest_distance_m']:.1f} m, release area "
-        f"{s['release_area_m2']:.0f} m$^2$, up-slope speed "
-        f"{s['upslope_crack_speed_over_cs']:.2f} $c_s$, cross-slope "
-        f"{s['crossslope_crack_speed_over_cs']:.2f} $c_s$"
+        f"up-slope arrest {num('upslope_arrest_distance_m', '.1f')} m, release area "
+        f"{num('release_area_m2', '.0f')} m$^2$, up-slope speed "
+        f"{num('upslope_crack_speed_over_cs', '.2f')} $c_s$, cross-slope "
+        f"{num('crossslope_crack_speed_over_cs', '.2f')} $c_s$"
     )
     if path:
         fig.savefig(path, dpi=110)

@@ -8,7 +8,7 @@ Physically dubious but valid choices raise a `ScenarioWarning` instead.
 
 Format (SI units throughout; angles in degrees)::
 
-    type = "pst"                  # required: the scenario kind (only "pst" so far)
+    type = "pst"                  # required: "pst", or "slope" (format: damjax.slope_scenario)
     name = "elastic-delta0"       # required: [A-Za-z0-9._-], names the output folder
     description = "one line"      # optional: shown by `damjax scenarios`
 
@@ -92,8 +92,8 @@ try:
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-SCENARIO_TYPES = ("pst",)
-TOP_KEYS = ("type", "name", "description", "params", "setup", "output", "strength")
+SCENARIO_TYPES = ("pst", "slope")
+TOP_KEYS = ("type", "name", "description", "params", "setup", "output", "strength", "terrain")
 STRENGTH_KEYS = ("file", "fit", "points")
 SECTIONS = ("params", "setup", "output")
 MAX_PARTICLES = 50_000_000  # beyond this a run cannot be allocated on one device
@@ -129,6 +129,8 @@ class Scenario:
     description: str = ""
     output: Output = Output()
     type: str = "pst"
+    terrain: dict[str, Any] | None = None  # slope scenarios: the [terrain] table
+    strength: dict[str, Any] | None = None  # slope scenarios: the [strength] table
 
     def to_dict(self) -> dict[str, Any]:
         """Every field resolved (defaults included), TOML-ready python values."""
@@ -141,8 +143,12 @@ class Scenario:
                 params[f.name] = v
         out["params"] = params
         out["setup"] = {
-            f.name: _plain(getattr(self.setup, f.name)) for f in dataclasses.fields(PSTSetup)
+            f.name: _plain(getattr(self.setup, f.name))
+            for f in dataclasses.fields(type(self.setup))
         }
+        for table in ("terrain", "strength"):
+            if getattr(self, table) is not None:
+                out[table] = {k: _plain(v) for k, v in getattr(self, table).items()}
         out["output"] = {
             f.name: getattr(self.output, f.name)
             for f in dataclasses.fields(Output)
@@ -158,7 +164,9 @@ class Scenario:
         """A validated copy with some keys overridden, e.g. ``replace(setup={"dx": 0.05})``."""
         data = self.to_dict()
         for section, values in sections.items():
-            if section in SECTIONS:
+            if section in SECTIONS or (
+                section in ("terrain", "strength") and isinstance(data.get(section), dict)
+            ):
                 data[section] = {**data.get(section, {}), **values}
             else:
                 data[section] = values
@@ -243,7 +251,12 @@ def parse(
         for note in notes:
             warnings.warn(note, ScenarioWarning, stacklevel=2)
         # config.validate warns about under-resolved dx (Lambda/5)
-        config.validate(scn.params, scn.setup)
+        if scn.type == "pst":
+            config.validate(scn.params, scn.setup)
+        else:
+            from damjax import slope_scenario
+
+            slope_scenario.warn_resolution(scn)
     return scn
 
 
@@ -330,6 +343,7 @@ _CHOICES = {
     "lateral": config.LATERAL_CONDITIONS,
     "dtype": config.DTYPES,
     "p0_rule": config.P0_RULES,
+    "mcc_invariants": config.MCC_INVARIANTS,
 }
 
 
@@ -476,6 +490,13 @@ def _check(
     if not isinstance(desc, str):
         problems.append(f"description = {_fmt(desc)}: must be a string")
 
+    if kind == "slope":  # schema of damjax.slope_scenario
+        from damjax import slope_scenario
+
+        scn_slope, slope_notes = slope_scenario.check(data, base_dir, problems)
+        return (None, problems, []) if problems else (scn_slope, [], slope_notes)
+    if "terrain" in data:
+        problems.append('terrain: only for type = "slope" scenarios')
     pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
     svals, sbad, sgiven = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)

@@ -1,5 +1,7 @@
 """Modified Cam Clay slab: surface, return mapping, p0 rules, robustness, fracture bands."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -13,31 +15,53 @@ from damjax.materials import mcc
 M, BETA, E, NU = 0.3, 1.2, 4e6, 0.3
 
 
-@pytest.mark.parametrize("rule,expected", [("uniaxial", 6000.0), ("paper", 3704.6)])
-def test_uniaxial_tension_yields_where_the_p0_rule_puts_it(rule, expected):
-    p0 = mcc.p0_from_tensile_strength(6000.0, M, BETA, rule)
-    st_, sc_ = mcc.uniaxial_strengths(p0, M, BETA)
+@pytest.mark.parametrize(
+    "rule,inv,expected",
+    [("uniaxial", "3d", 6000.0), ("paper", "3d", 3206.1), ("uniaxial", "plane", 6000.0),
+     ("paper", "plane", 3704.6)],
+)
+def test_uniaxial_tension_yields_where_the_p0_rule_puts_it(rule, inv, expected):
+    p0 = mcc.p0_from_tensile_strength(6000.0, M, BETA, rule, inv)
+    st_, sc_ = mcc.uniaxial_strengths(p0, M, BETA, inv)
     assert float(st_) == pytest.approx(expected, rel=1e-3)
-    # the yield function vanishes at uniaxial tension and compression
+    # the yield function, in this choice's invariants, vanishes at uniaxial tension and
+    # compression
     for sig in (float(st_), -float(sc_)):
-        p, q = -sig / 2, np.sqrt(3) / 2 * abs(sig)
-        assert abs(float(mcc.yield_function(p, q, p0, M, BETA))) < 1e-6 * float(p0) ** 2
+        p, q = mcc.invariants(jnp.asarray([sig, 0.0, 0.0]), inv)
+        assert abs(float(mcc.yield_function(p, q, p0, M, BETA))) < 1e-5 * float(p0) ** 2
     # a uniaxial return mapping caps the stress there
-    sig, dxx, dyy = mcc.return_map_uniaxial(jnp.asarray([2e4, -2e4, 100.0]), p0, M, BETA, E)
+    sig, dxx, dyy = mcc.return_map_uniaxial(
+        jnp.asarray([2e4, -2e4, 100.0]), p0, M, BETA, E, inv
+    )
     np.testing.assert_allclose(np.asarray(sig), [float(st_), -float(sc_), 100.0], rtol=1e-5)
     assert float(dxx[2]) == 0.0 and float(dyy[2]) == 0.0
-    # associative flow at uniaxial tension is nearly isochoric in the plane
-    assert float(dyy[0] / dxx[0]) == pytest.approx(-1.0, abs=0.01)
+    # associative flow at uniaxial tension: in-plane isochoric for the plane invariants,
+    # 3D-isochoric (d eps_yy = d eps_zz = -d eps_xx / 2) for the 3d ones, up to the small
+    # pressure term
+    ratio = {"plane": -1.0, "3d": -0.5}[inv]
+    assert float(dyy[0] / dxx[0]) == pytest.approx(ratio, abs=0.03)
 
 
-def test_compression_strength_from_p0_and_beta():
+def test_3d_invariants_of_plane_stress():
+    sig = jnp.asarray([3000.0, -1000.0, 500.0])
+    p, q = mcc.invariants(sig, "3d")
+    full = np.array([[3000.0, 500.0, 0.0], [500.0, -1000.0, 0.0], [0.0, 0.0, 0.0]])
+    dev = full - np.trace(full) / 3 * np.eye(3)
+    assert float(p) == pytest.approx(-np.trace(full) / 3)
+    assert float(q) == pytest.approx(np.sqrt(1.5 * np.sum(dev * dev)), rel=1e-6)
+
+
+@pytest.mark.parametrize("inv", ["3d", "plane"])
+def test_compression_strength_from_p0_and_beta(inv):
     p0 = 20000.0
-    _, sc = mcc.uniaxial_strengths(p0, M, BETA)
-    # solve y(sigma/2, sqrt(3)/2 sigma) = 0 on the compression side by bisection
+    _, sc = mcc.uniaxial_strengths(p0, M, BETA, inv)
+    # solve y(p, q) = 0 for uniaxial compression by bisection
     lo, hi = 0.0, 1e6
     for _ in range(200):
         mid = 0.5 * (lo + hi)
-        y = float(mcc.yield_function(mid / 2, np.sqrt(3) / 2 * mid, p0, M, BETA))
+        # uniaxial compression sigma = -mid: (p, q) = (mid/3, mid) or (mid/2, sqrt(3)/2 mid)
+        p, q = (mid / 3, mid) if inv == "3d" else (mid / 2, np.sqrt(3) / 2 * mid)
+        y = float(mcc.yield_function(p, q, p0, M, BETA))
         lo, hi = (mid, hi) if y < 0 else (lo, mid)
     assert float(sc) == pytest.approx(lo, rel=1e-6)
 
@@ -47,21 +71,22 @@ def _plane_stress(eps):
     return np.stack([c * (eps[0] + NU * eps[1]), c * (eps[1] + NU * eps[0]), c * (1 - NU) * eps[2]])
 
 
-def test_states_inside_are_untouched_and_returned_states_lie_on_the_surface():
+@pytest.mark.parametrize("inv", ["3d", "plane"])
+def test_states_inside_are_untouched_and_returned_states_lie_on_the_surface(inv):
     rng = np.random.default_rng(1)
-    p0 = float(mcc.p0_from_tensile_strength(6000.0, M, BETA, "uniaxial"))
+    p0 = float(mcc.p0_from_tensile_strength(6000.0, M, BETA, "uniaxial", inv))
     eps = rng.normal(0.0, 2e-3, (3, 4000))
-    sigma, dep = mcc.return_map_plane(jnp.asarray(eps), p0, M, BETA, E, NU)
+    sigma, dep = mcc.return_map_plane(jnp.asarray(eps), p0, M, BETA, E, NU, inv)
     sigma, dep = np.asarray(sigma), np.asarray(dep)
     from damjax.materials.slab import plane_stress
 
     trial = np.asarray(plane_stress(jnp.asarray(eps), E, NU))
-    p_tr, q_tr = mcc.invariants(jnp.asarray(trial))
+    p_tr, q_tr = mcc.invariants(jnp.asarray(trial), inv)
     inside = np.asarray(mcc.yield_function(p_tr, q_tr, p0, M, BETA)) <= 0
     assert inside.sum() > 100 and (~inside).sum() > 100
     np.testing.assert_array_equal(sigma[:, inside], trial[:, inside])
     np.testing.assert_array_equal(dep[:, inside], 0.0)
-    p, q = mcc.invariants(jnp.asarray(sigma[:, ~inside]))
+    p, q = mcc.invariants(jnp.asarray(sigma[:, ~inside]), inv)
     y = np.asarray(mcc.yield_function(p, q, p0, M, BETA))
     assert np.max(np.abs(y)) < 1e-6 * p0**2
     # stress = elastic law of the remaining elastic strain
@@ -102,20 +127,25 @@ def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
 finite = st.floats(-0.5, 0.5, allow_nan=False)
 
 
-@settings(max_examples=60, deadline=None)
-@given(st.lists(finite, min_size=3, max_size=3), st.sampled_from([2000.0, 6000.0, np.inf]),
-       st.sampled_from(["paper", "uniaxial"]))
-def test_return_mapping_never_produces_nan(e, sigma_t, rule):
-    eps = jnp.asarray(e, jnp.float32)[:, None] * jnp.asarray([1.0, 0.3, 1e-3])[None, :]
+@functools.cache
+def _nan_probe(rule: str, inv: str):
+    """Jitted value and gradient of every return mapping (compiled once per choice)."""
 
     def f(sigma_t_, eps_):
-        p0 = mcc.p0_from_tensile_strength(sigma_t_, M, BETA, rule)
-        sig, dep = mcc.return_map_plane(eps_, p0, M, BETA, E, NU)
-        sx, _, _ = mcc.return_map_uniaxial(E * eps_[0], p0, M, BETA, E)
+        p0 = mcc.p0_from_tensile_strength(sigma_t_, M, BETA, rule, inv)
+        sig, dep = mcc.return_map_plane(eps_, p0, M, BETA, E, NU, inv)
+        sx, _, _ = mcc.return_map_uniaxial(E * eps_[0], p0, M, BETA, E, inv)
         return jnp.sum(sig) + jnp.sum(sx) + jnp.sum(dep)
 
-    val = f(jnp.float32(sigma_t), eps)
-    g_st, g_eps = jax.grad(f, argnums=(0, 1))(jnp.float32(sigma_t), eps)
+    return jax.jit(jax.value_and_grad(f, argnums=(0, 1)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(finite, min_size=3, max_size=3), st.sampled_from([2000.0, 6000.0, np.inf]),
+       st.sampled_from(["paper", "uniaxial"]), st.sampled_from(["3d", "plane"]))
+def test_return_mapping_never_produces_nan(e, sigma_t, rule, inv):
+    eps = jnp.asarray(e, jnp.float32)[:, None] * jnp.asarray([1.0, 0.3, 1e-3])[None, :]
+    val, (g_st, g_eps) = _nan_probe(rule, inv)(jnp.float32(sigma_t), eps)
     assert np.isfinite(float(val))
     assert np.isfinite(float(g_st)) and np.all(np.isfinite(np.asarray(g_eps)))
 

@@ -65,6 +65,8 @@ class Model(eqx.Module):
     # saw
     saw_speed: Any  # [m/s]
     saw_lead: Any  # the saw stops once the crack leads it by this much [m]
+    # stress invariants of the MCC yield function ("3d" or "plane", see materials.mcc)
+    mcc_invariants: str = eqx.field(static=True, default="3d")
 
     @property
     def dim(self) -> int:

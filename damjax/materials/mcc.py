@@ -4,30 +4,37 @@ Yield function (paper Eq. 5), compression positive for p:
 
     y(p, q) = q^2 (1 + 2 beta) + M^2 (p + beta p0) (p - p0)  <= 0
 
-Invariants of the depth-averaged *in-plane* stress (the vertical stress, ~0.5 kPa for
-the baseline, is not included: the paper derives Eq. 6 "considering the plane stress
+Stress invariants (`invariants`, a static choice; the vertical stress, ~0.5 kPa for the
+baseline, is not included: the paper derives Eq. 6 "considering the plane stress
 hypothesis"):
 
-    p = -(sigma_xx + sigma_yy) / 2,   q = sqrt(3/2 s:s),  s = sigma - (tr sigma / 2) I.
+- ``"3d"`` (default): the usual invariants of the 3D stress tensor with sigma_zz = 0,
+  p = -(sigma_xx + sigma_yy) / 3, q = sqrt(3/2 s:s) with s the 3D deviator, i.e.
+  q^2 = sigma_xx^2 + sigma_yy^2 - sigma_xx sigma_yy + 3 sigma_xy^2. Uniaxial tension
+  sigma gives (p, q) = (-sigma/3, sigma). This is what 3D MPM codes evaluate.
+- ``"plane"``: invariants of the 2D in-plane tensor, p = -(sigma_xx + sigma_yy) / 2,
+  q = sqrt(3/2 s:s) with s = sigma - (tr sigma / 2) I; uniaxial tension gives
+  (p, q) = (-sigma/2, sqrt(3) sigma/2).
 
-Uniaxial tension sigma gives (p, q) = (-sigma/2, sqrt(3) sigma/2).
+In the in-plane variables (p2, q2) of the "plane" choice, both yield surfaces are
+ellipses y = alpha q2^2 + gamma (p2 - p_c)^2 - R (since q_3d^2 = q2^2 + p2^2 and
+p_3d = 2 p2 / 3 in plane stress), so one return mapping serves both (`_ellipse`).
 
 p0 from the tensile strength sigma_t (`p0_rule`):
 
 - ``"paper"``: Eq. 6 exactly as printed, with p_t = sqrt(3) sigma_t / 2 and
-  q_t = -sigma_t / 2. A uniaxial tension test then yields at ~0.62 sigma_t
-  (3.7 kPa for sigma_t = 6 kPa).
-- ``"uniaxial"``: Eq. 6 with the uniaxial-tension invariants p_t = -sigma_t / 2,
-  q_t = sqrt(3) sigma_t / 2 (the printed pair swapped), so that a uniaxial tension test
-  yields at exactly sigma_t.
+  q_t = -sigma_t / 2. A uniaxial tension test then yields at 0.534 sigma_t with the
+  "3d" invariants (3.2 kPa for sigma_t = 6 kPa) and at 0.617 sigma_t with "plane".
+- ``"uniaxial"``: p0 such that a uniaxial tension test yields at exactly sigma_t (with
+  "plane" this is Eq. 6 with the printed pair swapped; physics.md).
 
 Hardening/softening (`xi`): p0 = K sinh(-xi eps_v^p + asinh(p0_init / K)) with the
 in-plane volumetric plastic strain eps_v^p (dilation positive) and the in-plane bulk
 modulus K = E / (2 (1 - nu)) (explicit, as in the "SinhExpl" law of the MATTER MPM code);
 xi = 0 is perfect plasticity. Dilation softens the slab in tension.
 
-Return mapping: associative closest-point projection in (p, q), solved for the plastic
-multiplier with a safeguarded Newton iteration of fixed length (vmappable, NaN-free,
+Return mapping: associative closest-point projection, solved for the plastic multiplier
+with a safeguarded Newton iteration of fixed length (vmappable, NaN-free,
 differentiable). Width-uniform strips with free edges (sigma_yy = 0) use the exact
 uniaxial projection.
 """
@@ -39,6 +46,7 @@ from typing import Any
 import jax.numpy as jnp
 
 P0_RULES = ("paper", "uniaxial")
+INVARIANTS = ("3d", "plane")
 _NEWTON_ITERS = 8
 
 
@@ -48,20 +56,36 @@ def _sqrt(x: Any) -> Any:
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1.0)), 0.0)
 
 
-def p0_from_tensile_strength(sigma_t: Any, M: Any, beta: Any, rule: str = "paper") -> Any:
+def p0_from_tensile_strength(
+    sigma_t: Any, M: Any, beta: Any, rule: str = "paper", invariants: str = "3d"
+) -> Any:
     """Consolidation pressure p0 [Pa] from the tensile strength sigma_t [Pa] (Eq. 6)."""
     finite = jnp.isfinite(sigma_t)
     st = jnp.where(finite, sigma_t, 1.0)
     if rule == "paper":
         p_t, q_t = jnp.sqrt(3.0) * st / 2.0, -st / 2.0
-    elif rule == "uniaxial":
-        p_t, q_t = -st / 2.0, jnp.sqrt(3.0) * st / 2.0
+        p0 = -(1.0 - beta) * p_t / (2.0 * beta) + jnp.sqrt(
+            ((beta + 1.0) * p_t / (2.0 * beta)) ** 2 + (q_t / M) ** 2 * (1.0 + 2.0 * beta) / beta
+        )
+    elif rule == "uniaxial":  # the uniaxial tensile strength is proportional to p0
+        p0 = st / uniaxial_strengths(jnp.ones_like(st), M, beta, invariants)[0]
     else:
         raise ValueError(f"p0_rule = {rule!r}: must be in {{paper, uniaxial}}")
-    p0 = -(1.0 - beta) * p_t / (2.0 * beta) + jnp.sqrt(
-        ((beta + 1.0) * p_t / (2.0 * beta)) ** 2 + (q_t / M) ** 2 * (1.0 + 2.0 * beta) / beta
-    )
     return jnp.where(finite, p0, jnp.inf)
+
+
+def _ellipse(p0: Any, M: Any, beta: Any, invariants: str) -> tuple[Any, Any, Any, Any]:
+    """(alpha, gamma, p_c, R) of y = alpha q2^2 + gamma (p2 - p_c)^2 - R in the in-plane
+    invariants (p2, q2) of the "plane" choice (see the module doc)."""
+    alpha = 1.0 + 2.0 * beta
+    if invariants == "plane":
+        return alpha, M**2, -0.5 * (beta - 1.0) * p0, (M * 0.5 * (beta + 1.0) * p0) ** 2
+    if invariants != "3d":
+        raise ValueError(f"mcc_invariants = {invariants!r}: must be in {{3d, plane}}")
+    # alpha (q2^2 + p2^2) + M^2 (2 p2 / 3 + beta p0) (2 p2 / 3 - p0)
+    gamma = alpha + 4.0 * M**2 / 9.0
+    p_c = -(M**2) * (beta - 1.0) * p0 / (3.0 * gamma)
+    return alpha, gamma, p_c, gamma * p_c**2 + M**2 * beta * p0**2
 
 
 def yield_function(p: Any, q: Any, p0: Any, M: Any, beta: Any) -> Any:
@@ -69,19 +93,27 @@ def yield_function(p: Any, q: Any, p0: Any, M: Any, beta: Any) -> Any:
     return q**2 * (1.0 + 2.0 * beta) + M**2 * (p + beta * p0) * (p - p0)
 
 
-def invariants(sigma: Any) -> tuple[Any, Any]:
-    """(p, q) [Pa] of in-plane stress components (3, n) = (xx, yy, xy)."""
+def invariants(sigma: Any, kind: str = "3d") -> tuple[Any, Any]:
+    """(p, q) [Pa] of in-plane stress components (3, n) = (xx, yy, xy), sigma_zz = 0."""
+    if kind == "3d":
+        p = -(sigma[0] + sigma[1]) / 3.0
+        q = _sqrt(sigma[0] ** 2 + sigma[1] ** 2 - sigma[0] * sigma[1] + 3.0 * sigma[2] ** 2)
+        return p, q
     p = -0.5 * (sigma[0] + sigma[1])
     half = 0.5 * (sigma[0] - sigma[1])
     q = _sqrt(1.5 * (2.0 * half**2 + 2.0 * sigma[2] ** 2))
     return p, q
 
 
-def uniaxial_strengths(p0: Any, M: Any, beta: Any) -> tuple[Any, Any]:
+def uniaxial_strengths(
+    p0: Any, M: Any, beta: Any, invariants: str = "3d"
+) -> tuple[Any, Any]:
     """(tensile, compressive) uniaxial yield stresses [Pa], both positive, for p0."""
-    a = (3.0 * (1.0 + 2.0 * beta) + M**2) / 4.0
-    b = M**2 * p0 * (1.0 - beta) / 2.0
-    c = -(M**2) * beta * p0**2
+    alpha, gamma, p_c, R = _ellipse(p0, M, beta, invariants)
+    # (p2, q2) = (-sigma/2, sqrt(3)/2 |sigma|) on the ellipse: a sigma^2 + b sigma + c = 0
+    a = (3.0 * alpha + gamma) / 4.0
+    b = gamma * p_c
+    c = gamma * p_c**2 - R
     disc = jnp.sqrt(b * b - 4.0 * a * c)
     return (-b + disc) / (2.0 * a), (b + disc) / (2.0 * a)
 
@@ -94,11 +126,11 @@ def softened_p0(p0_init: Any, eps_pv: Any, xi: Any, bulk: Any) -> Any:
     return jnp.where(finite, jnp.maximum(p0, 1e-2), jnp.inf)
 
 
-def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any) -> Any:
+def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any, invariants: str) -> Any:
     """d eps_yy^p / d eps_xx^p of associative flow at the uniaxial state sigma_xx = sig."""
-    p = -0.5 * sig
-    y_p = M**2 * (2.0 * p + (beta - 1.0) * p0)
-    y_q = 2.0 * (1.0 + 2.0 * beta) * (jnp.sqrt(3.0) / 2.0) * jnp.abs(sig)
+    alpha, gamma, p_c, _ = _ellipse(p0, M, beta, invariants)
+    y_p = 2.0 * gamma * (-0.5 * sig - p_c)
+    y_q = 2.0 * alpha * (jnp.sqrt(3.0) / 2.0) * jnp.abs(sig)
     sgn = jnp.where(sig >= 0.0, 1.0, -1.0)
     n_xx = -0.5 * y_p + jnp.sqrt(3.0) / 2.0 * sgn * y_q
     n_yy = -0.5 * y_p - jnp.sqrt(3.0) / 2.0 * sgn * y_q
@@ -107,7 +139,7 @@ def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any) -> Any:
 
 
 def return_map_uniaxial(
-    sig_trial: Any, p0: Any, M: Any, beta: Any, youngs_modulus: Any
+    sig_trial: Any, p0: Any, M: Any, beta: Any, youngs_modulus: Any, invariants: str = "3d"
 ) -> tuple[Any, Any, Any]:
     """Exact projection of a uniaxial trial stress (free strip, sigma_yy = 0).
 
@@ -115,15 +147,21 @@ def return_map_uniaxial(
     """
     finite = jnp.isfinite(p0)
     p0s = jnp.where(finite, p0, 1.0)
-    st, sc = uniaxial_strengths(p0s, M, beta)
+    st, sc = uniaxial_strengths(p0s, M, beta, invariants)
     sig = jnp.where(finite, jnp.clip(sig_trial, -sc, st), sig_trial)
     d_xx = (sig_trial - sig) / youngs_modulus
-    d_yy = d_xx * _flow_uniaxial(sig, p0s, M, beta)
+    d_yy = d_xx * _flow_uniaxial(sig, p0s, M, beta, invariants)
     return sig, d_xx, d_yy
 
 
 def return_map_plane(
-    eps_e: Any, p0: Any, M: Any, beta: Any, youngs_modulus: Any, poisson: Any
+    eps_e: Any,
+    p0: Any,
+    M: Any,
+    beta: Any,
+    youngs_modulus: Any,
+    poisson: Any,
+    invariants: str = "3d",
 ) -> tuple[Any, Any]:
     """Closest-point projection of a plane-stress elastic trial strain (3, n).
 
@@ -139,18 +177,18 @@ def return_map_plane(
     q_tr = _sqrt(1.5 * (s_tr[0] ** 2 + s_tr[1] ** 2 + 2.0 * s_tr[2] ** 2))
     finite = jnp.isfinite(p0)
     p0s = jnp.where(finite, p0, 1.0)
-    plastic = finite & (yield_function(p_tr, q_tr, p0s, M, beta) > 0.0)
+    alpha, gamma, p_c, R = _ellipse(p0s, M, beta, invariants)
+    plastic = finite & (alpha * q_tr**2 + gamma * (p_tr - p_c) ** 2 - R > 0.0)
 
-    # With the ellipse centre p_c = -(beta - 1) p0 / 2 and half-width w = (beta + 1) p0 / 2:
+    # In the in-plane invariants the surface is alpha q^2 + gamma (p - p_c)^2 = R and
     #   f(dl) = A / (1 + a dl)^2 + B / (1 + 2 b dl)^2 - C,
-    # A = (1 + 2 beta) q_tr^2, B = M^2 (p_tr - p_c)^2, C = M^2 w^2: convex and decreasing,
+    # A = alpha q_tr^2, B = gamma (p_tr - p_c)^2, C = R: convex and decreasing,
     # so Newton started below the root converges monotonically (never overshoots).
-    a = 6.0 * G * (1.0 + 2.0 * beta)
-    b = kappa * M**2
-    p_c = -0.5 * (beta - 1.0) * p0s
-    A = (1.0 + 2.0 * beta) * q_tr**2
-    B = M**2 * (p_tr - p_c) ** 2
-    C = M**2 * (0.5 * (beta + 1.0) * p0s) ** 2
+    a = 6.0 * G * alpha
+    b = kappa * gamma
+    A = alpha * q_tr**2
+    B = gamma * (p_tr - p_c) ** 2
+    C = R
     # each one-term root is a lower bound of the root
     dl = jnp.maximum(
         jnp.maximum((_sqrt(A / C) - 1.0) / a, (_sqrt(B / C) - 1.0) / (2.0 * b)), 0.0

@@ -157,7 +157,11 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         poisson=f(params.poisson),
         plastic=_is_plastic(params),
         p0_init=mcc.p0_from_tensile_strength(
-            f(params.tensile_strength), f(params.mcc_m), f(params.mcc_beta), setup.p0_rule
+            f(params.tensile_strength),
+            f(params.mcc_m),
+            f(params.mcc_beta),
+            setup.p0_rule,
+            setup.mcc_invariants,
         ),
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
@@ -171,6 +175,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         friction=jnp.tan(phi),
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
+        mcc_invariants=setup.mcc_invariants,
     )
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
     u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
