@@ -33,8 +33,13 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     if np.all(np.isfinite(result.tau_peak)):
         ax.plot(result.x, result.tau_peak, "k-", label=r"strength $\tau_p$")
         ax.plot(result.x, result.tau_peak - tau_r, "k:", label=r"cohesion $\tau_p-\tau_r$")
-    ax.plot(result.x, result.wl_shear, color="tab:green", lw=0.8,
-            label=r"weak-layer shear $\tau_{xz}$ (final)")
+    ax.plot(
+        result.x,
+        result.wl_shear,
+        color="tab:green",
+        lw=0.8,
+        label=r"weak-layer shear $\tau_{xz}$ (final)",
+    )
     ax.axhline(float(theory.gravity_shear(p)), color="tab:blue", ls="--", label=r"$\tau_g$")
     ax.set_ylabel("shear stress [Pa]")
     ax.legend(loc="upper left", fontsize=8)
@@ -57,9 +62,7 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
         from damjax.materials import mcc
 
         inv = getattr(s, "mcc_invariants", "3d")
-        p0 = mcc.p0_from_tensile_strength(
-            st, float(p.mcc_m), float(p.mcc_beta), s.p0_rule, inv
-        )
+        p0 = mcc.p0_from_tensile_strength(st, float(p.mcc_m), float(p.mcc_beta), s.p0_rule, inv)
         st_eff = float(mcc.uniaxial_strengths(p0, float(p.mcc_m), float(p.mcc_beta), inv)[0])
         ax.axhline(st, color="tab:red", ls="--", label=r"$\sigma_t$")
         if abs(st_eff - st) > 1e-3 * st:
@@ -108,18 +111,31 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     fig, axes = plt.subplots(1, 4, figsize=(17, 5.5), constrained_layout=True)
     ax = axes[0]
     broken = np.isfinite(result.arrival_time)
-    ax.imshow(broken, origin="lower", extent=ext, cmap=ListedColormap(["white", "0.85"]),
-              aspect="equal")
+    ax.imshow(
+        broken,
+        origin="lower",
+        extent=ext,
+        cmap=ListedColormap(["white", "0.85"]),
+        vmin=0,
+        vmax=1,
+        aspect="equal",
+    )
     marks = np.zeros(result.height.shape)
     marks[result.height < 0.98 * h0] = -1
     marks[result.height > 1.02 * h0] = 1
     masked = np.ma.masked_where(marks == 0, marks)
-    ax.imshow(masked, origin="lower", extent=ext, cmap=ListedColormap(["tab:blue", "tab:red"]),
-              vmin=-1, vmax=1, aspect="equal")
+    ax.imshow(
+        masked,
+        origin="lower",
+        extent=ext,
+        cmap=ListedColormap(["tab:blue", "tab:red"]),
+        vmin=-1,
+        vmax=1,
+        aspect="equal",
+    )
     x0, y0 = result.setup.start
     ax.plot([y0], [x0], "k*", ms=12)
-    ax.set_title("released (grey), crown h<0.98h0 (blue),\nstauchwall h>1.02h0 (red)",
-                 fontsize=9)
+    ax.set_title("released (grey), crown h<0.98h0 (blue),\nstauchwall h>1.02h0 (red)", fontsize=9)
     ax.set_xlabel("y across [m]")
     ax.set_ylabel("x up-slope [m]")
     ax = axes[1]
@@ -133,8 +149,15 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     from damjax.slope_scenario import crack_speed_map
 
     cs = float(theory.shear_wave_speed(result.params))
-    im = ax.imshow(crack_speed_map(result) / cs, origin="lower", extent=ext, cmap="plasma",
-                   vmin=0.0, vmax=2.0, aspect="equal")
+    im = ax.imshow(
+        crack_speed_map(result) / cs,
+        origin="lower",
+        extent=ext,
+        cmap="plasma",
+        vmin=0.0,
+        vmax=2.0,
+        aspect="equal",
+    )
     fig.colorbar(im, ax=ax, shrink=0.8, label=r"local crack speed / $c_s$")
     ax.plot([y0], [x0], "k*", ms=12)
     ax.set_xlabel("y across [m]")
@@ -170,11 +193,25 @@ def animate_slope(result: Any, path: str, fps: int = 8) -> None:
     h0 = float(result.params.thickness)
     ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
     fig, ax = plt.subplots(figsize=(5, 5.5), constrained_layout=True)
-    im = ax.imshow(snaps["height"][0] / h0 - 1, origin="lower", extent=ext, cmap="RdBu_r",
-                   vmin=-0.03, vmax=0.03, aspect="equal")
-    cover = ax.imshow(np.ma.masked_where(snaps["broken"][0] < 0.5, snaps["broken"][0]),
-                      origin="lower", extent=ext, cmap="Greys", alpha=0.35, vmin=0, vmax=2,
-                      aspect="equal")
+    im = ax.imshow(
+        snaps["height"][0] / h0 - 1,
+        origin="lower",
+        extent=ext,
+        cmap="RdBu_r",
+        vmin=-0.03,
+        vmax=0.03,
+        aspect="equal",
+    )
+    cover = ax.imshow(
+        np.ma.masked_where(snaps["broken"][0] < 0.5, snaps["broken"][0]),
+        origin="lower",
+        extent=ext,
+        cmap="Greys",
+        alpha=0.35,
+        vmin=0,
+        vmax=2,
+        aspect="equal",
+    )
     fig.colorbar(im, ax=ax, shrink=0.8, label="h / h0 - 1")
     title = ax.set_title("")
 

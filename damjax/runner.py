@@ -39,6 +39,9 @@ SUMMARY = "summary.json"
 PLOT = "pst.png"
 FINAL_STATE = "final_state.npz"
 OUTPUTS = (RESULTS, SUMMARY, PLOT, FINAL_STATE)
+SLOPE_PLOT = "slope.png"  # slope scenarios: maps (h, crown, stauchwall, arrival, speed)
+SLOPE_ANIMATION = "release.gif"  # slope scenarios: animation of the release
+SLOPE_OUTPUTS = (SLOPE_PLOT, SLOPE_ANIMATION)
 CHECKPOINT_FORMAT = "damjax-checkpoint/1"
 TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s")
 
@@ -56,7 +59,7 @@ class RunOutcome:
 
     @property
     def fault(self) -> str | None:
-        return self.result.fault
+        return getattr(self.result, "fault", None) or self.summary.get("fault")
 
 
 def default_out_dir(scn: Scenario) -> Path:
@@ -181,8 +184,10 @@ def run(
     out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
     out.mkdir(parents=True, exist_ok=True)
     io.remove_stale_temporaries(out)
-    for name in (CHECKPOINT, *OUTPUTS):  # never mix the files of two runs
+    for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
         (out / name).unlink(missing_ok=True)
+    if scn.type == "slope":
+        return _run_slope(scn, out, checkpoint_every, progress)
     from damjax.scenarios.pst import make_layout
 
     n_chunks = make_layout(scn.params, scn.setup).n_chunks
@@ -310,6 +315,62 @@ def _finish(
     return RunOutcome(scn, result, out, files, full, resumed_from)
 
 
+def _run_slope(
+    scn: Scenario, out: Path, checkpoint_every: float | None, progress: bool
+) -> RunOutcome:
+    """A slope scenario: results.nc (maps and snapshots), summary.json, slope.png and
+    release.gif. Slope runs are not checkpointed (``checkpoint_every`` only warns)."""
+    from damjax import slope_scenario
+
+    if checkpoint_every is not None:
+        warnings.warn(
+            "checkpoint/resume is not implemented for slope scenarios: this run writes no "
+            "checkpoint",
+            stacklevel=3,
+        )
+    result = slope_scenario.simulate(scn, progress=progress)
+    summary = dict(result.summary)
+    stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
+    ds = slope_scenario.result_dataset(result, snapshots=scn.output.snapshots)
+    ds.attrs.update(
+        {
+            "Conventions": "CF-1.10",
+            "title": f"damjax {scn.type} scenario {scn.name}",
+            "source": f"damjax {_version()}",
+            "damjax_version": _version(),
+            "scenario": scn.to_toml(),
+            "summary": io.to_json(stable),
+        }
+    )
+    if summary.get("fault"):
+        ds.attrs["fault"] = summary["fault"]
+    files = {"results": out / RESULTS}
+    io.write_dataset(files["results"], ds)
+    if scn.output.plot:
+        from damjax.plot import animate_slope, plot_slope
+
+        files["plot"] = out / SLOPE_PLOT
+        io.save_figure(plot_slope(result), files["plot"])
+        if result.snapshots:
+            files["animation"] = out / SLOPE_ANIMATION
+            tmp = out / f".{SLOPE_ANIMATION}.partial.gif"  # the writer needs a .gif name
+            try:
+                animate_slope(result, str(tmp))
+                os.replace(tmp, files["animation"])
+            finally:
+                tmp.unlink(missing_ok=True)
+    files["summary"] = out / SUMMARY
+    full = {
+        "scenario": scn.name,
+        "damjax_version": _version(),
+        **summary,
+        "resumed_from_chunk": None,
+        "out_dir": str(out),
+    }
+    io.write_json(files["summary"], full)
+    return RunOutcome(scn, result, out, files, full, None)
+
+
 # --------------------------------------------------------------------------- reading back
 
 
@@ -361,11 +422,25 @@ def show(
 
     The summary is ``summary.json`` when present, else the one stored in ``results.nc``.
     """
-    from damjax.plot import plot_pst
+    from damjax.plot import plot_pst, plot_slope
 
-    _, result = load_result(out_dir)
-    target = Path(plot) if plot is not None else Path(out_dir) / PLOT
-    io.save_figure(plot_pst(result), target)
+    path = Path(out_dir) / RESULTS
+    slope = None
+    if path.is_file():
+        from damjax import slope_scenario
+
+        try:
+            slope = slope_scenario.load_result(path)
+        except (OSError, ValueError, KeyError):
+            slope = None
+    if slope is not None:
+        result = slope
+        target = Path(plot) if plot is not None else Path(out_dir) / SLOPE_PLOT
+        io.save_figure(plot_slope(result), target)
+    else:
+        _, result = load_result(out_dir)
+        target = Path(plot) if plot is not None else Path(out_dir) / PLOT
+        io.save_figure(plot_pst(result), target)
     summary = result.summary
     sfile = Path(out_dir) / SUMMARY
     if sfile.is_file():

@@ -51,6 +51,7 @@ class SlopeSetup:
         dtype: "float32" or "float64".
         chunk_steps: steps per jitted chunk (one snapshot per chunk).
         p0_rule: MCC p0 rule (see `PSTSetup`).
+        mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
     """
 
     length: float = 50.0
@@ -63,6 +64,7 @@ class SlopeSetup:
     dtype: str = "float32"
     chunk_steps: int = 100
     p0_rule: str = "paper"
+    mcc_invariants: str = "3d"
 
 
 def _problems(params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any) -> list[str]:
@@ -191,7 +193,11 @@ def build(
         poisson=f(params.poisson),
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            f(params.tensile_strength), f(params.mcc_m), f(params.mcc_beta), setup.p0_rule
+            f(params.tensile_strength),
+            f(params.mcc_m),
+            f(params.mcc_beta),
+            setup.p0_rule,
+            setup.mcc_invariants,
         ),
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
@@ -205,6 +211,7 @@ def build(
         friction=jnp.tan(phi),
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
+        mcc_invariants=setup.mcc_invariants,
     )
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
     u0 = (f(params.density) * f(params.thickness) / K) * g_t
@@ -282,20 +289,32 @@ class SlopeResult:
             },
         )
         if self.snapshots:
-            ds["snapshot_time"] = var(("snapshot",), self.snapshots["time"], "s",
-                                      "time of the snapshot")
-            ds["height_snapshots"] = var(("snapshot", "x", "y"), self.snapshots["height"], "m",
-                                         "slab column height")
-            ds["released_snapshots"] = var(("snapshot", "x", "y"),
-                                           self.snapshots["broken"].astype(np.float32), "1",
-                                           "released fraction of the weak layer")
+            ds["snapshot_time"] = var(
+                ("snapshot",), self.snapshots["time"], "s", "time of the snapshot"
+            )
+            ds["height_snapshots"] = var(
+                ("snapshot", "x", "y"), self.snapshots["height"], "m", "slab column height"
+            )
+            ds["released_snapshots"] = var(
+                ("snapshot", "x", "y"),
+                self.snapshots["broken"].astype(np.float32),
+                "1",
+                "released fraction of the weak layer",
+            )
         ds.attrs = {
             "title": "damjax slope-scale release",
             "damjax_version": damjax.__version__,
             "setup": json.dumps(dataclasses.asdict(self.setup)),
-            "params": json.dumps({f.name: (None if getattr(self.params, f.name) is None else
-                                           np.asarray(getattr(self.params, f.name)).tolist())
-                                  for f in dataclasses.fields(self.params)}),
+            "params": json.dumps(
+                {
+                    f.name: (
+                        None
+                        if getattr(self.params, f.name) is None
+                        else np.asarray(getattr(self.params, f.name)).tolist()
+                    )
+                    for f in dataclasses.fields(self.params)
+                }
+            ),
             "summary": json.dumps(self.summary),
             "Conventions": "CF-1.8",
         }
