@@ -322,7 +322,8 @@ def build_parser() -> argparse.ArgumentParser:
         "run",
         help="run a scenario file (or a shipped scenario by name)",
         description="Run a scenario and write results.nc, summary.json, final_state.npz "
-        "and pst.png into DIR.",
+        "and pst.png into DIR (slope scenarios: results.nc, summary.json, slope.png and "
+        "release.gif).",
     )
     p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
     p.add_argument("--out", metavar="DIR", help="output folder (default ./damjax-out/<name>)")
@@ -352,7 +353,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("show", help="print the summary and re-plot a finished run in DIR")
     p.add_argument("dir", metavar="DIR", help="output folder holding results.nc")
-    p.add_argument("--plot", metavar="FILE", help="figure file (default DIR/pst.png)")
+    p.add_argument(
+        "--plot", metavar="FILE", help="figure file (default DIR/pst.png or DIR/slope.png)"
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_show)
     return parser

@@ -1069,7 +1069,9 @@ def map_on_grid(
     y = np.asarray(y, dtype=float)
     xq = np.clip(np.asarray(xq, dtype=float), x[0], x[-1])
     yq = np.clip(np.asarray(yq, dtype=float), y[0], y[-1])
-    return Terrain(x, y, np.asarray(tau, dtype=float)).resample(xq, yq).z
+    # sample, not resample: clipped query nodes repeat, so they are no regular grid
+    xx, yy = np.meshgrid(xq, yq, indexing="ij")
+    return Terrain(x, y, np.asarray(tau, dtype=float)).sample(xx, yy)
 
 
 def transect(

@@ -682,7 +682,7 @@ def result_dataset(result: Any, snapshots: bool = True) -> Any:
         ds = ds.drop_vars(names)
     else:
         for n in names:
-            if ds[n].dtype == np.float64:
+            if ds[n].dtype == np.float64 and n != "snapshot_time":
                 ds[n] = ds[n].astype(np.float32)
     return ds
 

@@ -1,0 +1,277 @@
+"""Slope scale: the 2D step on a plane strip against the 1D PST, slope scenarios (schema,
+validation, `damjax run` / `damjax show`), terrain and strength inputs on the grid.
+
+Runs are small (seconds each): the shipped 50 m slopes are only validated here.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import tomllib
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from damjax import PSTParams, PSTSetup, scenario, slope_scenario, terrain
+from damjax.cli import main
+from damjax.materials import weak_layer
+from damjax.scenarios.pst import simulate_pst
+from damjax.scenarios.slope import SlopeSetup, simulate_slope
+
+SLOPE_NAMES = ["slope-quick", "slope-generic-50x60", "slope-generic-50x100"]
+JSON_KEYS = (
+    "upslope_arrest_distance_m",
+    "upslope_crack_speed_over_cs",
+    "crossslope_crack_speed_over_cs",
+    "release_area_m2",
+    "n_particles",
+    "n_steps",
+    "wall_time_s",
+)
+
+
+def raw(name: str) -> dict:
+    with open(scenario.shipped()[name], "rb") as fh:
+        return tomllib.load(fh)
+
+
+def quiet_parse(doc: dict, **kw) -> scenario.Scenario:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return scenario.parse(doc, **kw)
+
+
+# --------------------------------------------------------------------------- physics
+
+
+def test_plane_strip_reproduces_the_1d_pst_arrest():
+    """A 12 m x 0.6 m strip on a uniform plane, sawn from its lower edge, arrests where the
+    1D PST (free lateral condition) does, with the same critical cut length."""
+    p = PSTParams(steady_length=4.0, strength_gradient=2000.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r1 = simulate_pst(
+            p, PSTSetup(length=12.0, dx=0.05, duration=0.6, particles_per_cell=1, chunk_steps=200)
+        )
+    setup = SlopeSetup(
+        length=12.0,
+        width=0.6,
+        dx=0.05,
+        duration=0.6,
+        start=(0.0, 0.3),
+        particles_per_cell=1,
+        chunk_steps=200,
+    )
+    x = (np.arange(240) + 0.5) * 0.05
+    tau = np.asarray(weak_layer.strength_profile(x, 1000.0, 4.0, 2000.0))
+    r2 = simulate_slope(p, setup, tau_peak=np.repeat(tau[:, None], 12, axis=1))
+    assert r1.summary["arrested"] and r2.summary["arrested_before_top"]
+    l1d = r1.summary["arrest_position_m"]
+    assert 4.0 < l1d < 11.0
+    assert r2.summary["upslope_arrest_distance_m"] == pytest.approx(l1d, abs=2 * setup.dx)
+    assert r2.summary["critical_cut_radius_m"] == pytest.approx(
+        r1.summary["critical_cut_length_m"], abs=setup.dx
+    )
+
+
+# --------------------------------------------------------------------------- scenarios
+
+
+@pytest.mark.parametrize("name", SLOPE_NAMES)
+def test_shipped_slope_scenarios_validate_and_round_trip(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # dx > Lambda/5 (as for PSTs)
+        warnings.simplefilter("error", scenario.ScenarioWarning)
+        scn = scenario.load(name)
+    assert scn.type == "slope" and scn.name == name
+    text = scn.to_toml()
+    again = scenario.loads(text, warn=False)
+    assert again == scn and again.to_toml() == text
+
+
+def test_acceptance_scenario_is_the_issue_5_case():
+    scn = scenario.load("slope-generic-50x60", warn=False)
+    p, s = scn.params, scn.setup
+    assert (p.youngs_modulus, p.tensile_strength, p.softening) == (4.0e6, 4000.0, 1.0)
+    assert (s.length, s.width, s.dx, s.duration) == (50.0, 60.0, 0.2, 2.0)
+    assert scn.terrain["kind"] == "generic"
+    assert scn.strength["kind"] == "grf" and scn.strength["trend"] == 20.0
+    slope, fall, tau, start = slope_scenario.resolve_fields(scn)
+    assert slope.shape == tau.shape == (250, 300) and fall == 0.0
+    assert slope.max() == pytest.approx(35.0, abs=1e-3) and slope[0, 0] < 11.0
+    # the field rises 20 Pa/m up-slope on average
+    trend = np.polyfit(np.arange(250) * 0.2, tau.mean(axis=1), 1)[0]
+    assert trend == pytest.approx(20.0, abs=5.0)
+    assert 12.0 <= start[0] <= 18.0 and 15.0 <= start[1] <= 45.0
+    assert scenario.load("slope-generic-50x100", warn=False).setup.width == 100.0
+
+
+def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
+    out = tmp_path / "q"
+    assert main(["run", "slope-quick", "--out", str(out), "--json", "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    for key in JSON_KEYS:
+        assert key in summary, key
+    assert summary["n_particles"] == 120 * 60 and summary["n_steps"] > 0
+    assert summary["fault"] is None
+    assert summary["release_area_m2"] > 10.0 and summary["upslope_arrest_distance_m"] > 2.0
+    for name in ("results.nc", "summary.json", "slope.png", "release.gif"):
+        assert (out / name).is_file(), name
+    from damjax import io
+
+    ds = io.open_dataset(out / "results.nc")
+    for name in ("height", "arrival_time", "crack_speed", "tau_peak", "slope_angle"):
+        assert "units" in ds[name].attrs and "long_name" in ds[name].attrs
+    assert np.all(np.isfinite(ds["height"].values))
+    assert 'type = "slope"' in ds.attrs["scenario"] and ds.attrs["damjax_version"]
+    assert ds["slope_angle"].values == pytest.approx(35.0, abs=1e-3)
+    (out / "slope.png").unlink()
+    assert main(["show", str(out), "--json"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["release_area_m2"] == summary["release_area_m2"]
+    assert (out / "slope.png").is_file()
+
+
+BAD = [
+    ({"setup": {"width": -1.0}}, "setup.width = -1.0: must be in (0, inf) m"),
+    ({"setup": {"start": [1.0, 2.0, 3.0]}}, "setup.start"),
+    ({"setup": {"start": [30.0, 3.0]}}, "setup.start = [30.0, 3.0]: must lie in"),
+    ({"setup": {"controlled": True}}, "setup.controlled: unknown key"),
+    ({"setup": {"dx": 0.5}}, "setup.dx = 0.5: must be at most Lambda/2"),
+    ({"setup": {"particles_per_cell": 1.5}}, "setup.particles_per_cell = 1.5"),
+    ({"params": {"poisson": 0.7}}, "params.poisson = 0.7: must be in (0, 0.5)"),
+    ({"terrain": {"kind": "moon"}}, 'terrain.kind = "moon": must be one of'),
+    ({"terrain": {"kind": "plane", "slope_deg": 95.0}}, "terrain.slope_deg = 95.0"),
+    ({"terrain": {"kind": "plane", "max_slope_deg": 30.0}}, "terrain.max_slope_deg: unknown"),
+    ({"terrain": {"kind": "generic", "toe_length": 10.0}}, "terrain.toe_length = 10.0"),
+    ({"terrain": {"kind": "dem"}}, "terrain.file: missing"),
+    ({"terrain": {"kind": "dem", "file": "nowhere.asc"}}, "terrain.file = "),
+    ({"terrain": {"kind": "dem", "file": "x.asc", "upslope": "up"}}, "terrain.upslope"),
+    ({"strength": {"kind": "grf", "std": -5.0}}, "strength.std = -5.0"),
+    ({"strength": {"kind": "grf", "model": "cubic"}}, 'strength.model = "cubic"'),
+    ({"strength": {"kind": "grf", "seed": 1.5}}, "strength.seed = 1.5"),
+    ({"strength": {"kind": "grf", "length_scale": [1.0, 2.0, 3.0]}}, "strength.length_scale"),
+    ({"strength": {"kind": "constant", "tau_peak": math.nan}}, "strength.tau_peak = nan"),
+    ({"strength": {"kind": "constant", "seed": 3}}, "strength.seed: unknown key"),
+    ({"strength": {"kind": "map", "file": "nowhere.csv"}}, "strength.file = "),
+    ({"strength": {"start_window": [8.0, 30.0]}}, "strength.start_window = [8.0, 30.0]"),
+    ({"strength": 3}, "strength = 3: must be a table"),
+]
+
+
+@pytest.mark.parametrize(("change", "expected"), BAD)
+def test_bad_slope_scenarios_give_one_line_errors(change, expected, tmp_path):
+    doc = raw("slope-quick")
+    for sec, table in change.items():
+        if isinstance(table, dict) and isinstance(doc.get(sec), dict) and "kind" not in table:
+            doc[sec] = {**doc[sec], **table}
+        else:
+            doc[sec] = table
+    with pytest.raises(ValueError) as exc:
+        quiet_parse(doc, base_dir=tmp_path)
+    lines = str(exc.value).splitlines()
+    assert any(expected in line for line in lines), lines
+    assert "Traceback" not in str(exc.value)
+    assert lines == scenario.problems(doc) or any("file" in line for line in lines)
+
+
+def test_bad_slope_scenario_exits_2_on_the_cli(tmp_path, capsys):
+    doc = raw("slope-quick")
+    doc["setup"]["width"] = 0.0
+    doc["terrain"]["slpoe_deg"] = 30.0
+    path = tmp_path / "bad.toml"
+    path.write_text(scenario.dumps(doc))
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and all(e.startswith("damjax: error: bad.toml: ") for e in err)
+    assert "setup.width = 0.0" in err[1] or "setup.width = 0.0" in err[0]
+    assert any("did you mean 'terrain.slope_deg'" in e for e in err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_every_slope_key_rejects_a_wrong_type():
+    """Retype every key of the shipped slope scenarios: each gives a clean error naming it."""
+    for name in ("slope-quick", "slope-generic-50x60"):
+        base = raw(name)
+        for sec in ("params", "setup", "terrain", "strength", "output"):
+            for key in list(base.get(sec, {})):
+                doc = copy.deepcopy(base)
+                doc[sec][key] = {"a": 1}
+                with pytest.raises(ValueError) as exc:
+                    quiet_parse(doc)
+                assert f"{sec}.{key}" in str(exc.value), (name, sec, key, str(exc.value))
+
+
+def test_terrain_only_for_slopes():
+    doc = raw("quick")
+    doc["terrain"] = {"kind": "plane"}
+    with pytest.raises(ValueError, match='terrain: only for type = "slope"'):
+        quiet_parse(doc)
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def _plane_dem(path: Path, gx: float, gy: float) -> Path:
+    x = np.arange(0.0, 40.01, 1.0)
+    y = np.arange(0.0, 30.01, 1.0)
+    xx, yy = np.meshgrid(x, y, indexing="ij")
+    terrain.save_esri_ascii(terrain.Terrain(x, y, 100.0 + gx * xx + gy * yy), path)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("gx", "gy", "upslope", "fall"),
+    [
+        (math.tan(math.radians(30.0)), 0.0, "+x", 0.0),
+        (0.0, -math.tan(math.radians(30.0)), "-y", 0.0),
+        (-math.tan(math.radians(30.0)), 0.0, "-x", 0.0),
+    ],
+)
+def test_tilted_plane_dem_gives_its_slope_angle(tmp_path, gx, gy, upslope, fall):
+    _plane_dem(tmp_path / "plane.asc", gx, gy)
+    origin = {"+x": [1.0, 2.0], "-y": [30.0, 29.0], "-x": [39.0, 28.0]}[upslope]
+    doc = raw("slope-quick")
+    doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": origin, "upslope": upslope}
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    assert Path(scn.terrain["file"]).is_absolute()
+    slope, fall_deg, tau, _ = slope_scenario.resolve_fields(scn)
+    assert slope.shape == (120, 60)
+    assert slope == pytest.approx(30.0, abs=1e-3)  # the .asc file keeps 6 decimals
+    assert np.asarray(fall_deg) == pytest.approx(fall, abs=1e-3)
+
+
+def test_dem_cross_tilt_sets_the_fall_direction():
+    x = np.arange(0.0, 40.01, 1.0)
+    y = np.arange(0.0, 30.01, 1.0)
+    xx, yy = np.meshgrid(x, y, indexing="ij")
+    ter = terrain.Terrain(x, y, 0.6 * xx + 0.2 * yy)
+    xs, ys = slope_scenario.cell_centres(SlopeSetup(length=10.0, width=8.0, dx=0.5))
+    slope, fall = slope_scenario.dem_fields(ter, xs, ys, (2.0, 2.0), "+x")
+    assert slope == pytest.approx(math.degrees(math.atan(math.hypot(0.6, 0.2))), abs=1e-6)
+    assert fall == pytest.approx(math.degrees(math.atan2(0.2, 0.6)), abs=1e-6)
+
+
+def test_dem_smaller_than_the_release_area_is_an_error(tmp_path):
+    _plane_dem(tmp_path / "plane.asc", 0.5, 0.0)
+    doc = raw("slope-quick")
+    doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": [35.0, 0.0]}
+    with pytest.raises(ValueError, match=r"^terrain.file = .*leaves the terrain"):
+        quiet_parse(doc, base_dir=tmp_path)
+
+
+def test_generic_terrain_and_strength_map_on_the_grid():
+    doc = raw("slope-quick")
+    doc["setup"].update(length=50.0, width=6.0, dx=0.25)
+    doc["terrain"] = {"kind": "generic"}
+    data = Path(scenario.library_dir()).parent.parent / "data" / "synthetic_strength_map.csv"
+    doc["strength"] = {"kind": "map", "file": str(data)}
+    scn = quiet_parse(doc)
+    slope, _, tau, _ = slope_scenario.resolve_fields(scn)
+    x, _ = slope_scenario.cell_centres(scn.setup)
+    assert slope[:, 0] == pytest.approx(np.asarray(terrain.generic_slope_angle(x)), abs=1e-4)
+    assert np.all(np.isfinite(tau)) and 500.0 < tau.mean() < 2500.0
