@@ -1,0 +1,321 @@
+"""Calibrating slab parameters against an observed release zone, through the 2D solver.
+
+Given a weak-layer strength map (measured, put on the simulation grid with
+`damjax.fields.map_on_grid`), the terrain, and an observed release polygon (or the
+area inside a mapped crown line) rasterised on an observation grid, `calibrate_slope`
+fits the slab tensile strength sigma_t (and optionally the weak-layer softening delta)
+by gradient descent (optax Adam, over the logarithms) on a differentiable misfit between
+the simulated and the observed release maps.
+
+What is differentiated. Which particles' weak layer fails is a discrete event; the
+smooth stand-in is the per-particle damage of `damjax.diagnostics` (the 1D smooth arrest
+surrogate, here kept as a map):
+
+    D_p = s((u_max,p / u_r,p - (1 - w)) / w),  s the C1 smoothstep, w = 0.5,
+
+(1 where sawn), averaged over the particles of each observation cell, D_c in [0, 1]. The
+loss is the mean squared difference sum_c (D_c - O_c)^2 / n_c against the observed
+release fraction O_c (the Brier score of the release map), which is the area of the
+symmetric difference between the two release zones for sharp maps, per cell.
+`calibrate_slope` evaluates it per particle (each particle's damage D_p against the
+observed value of the observation cell it sits in), which keeps the sub-cell position of
+the simulated front in the loss. Gradients
+come from reverse mode through the whole run (`damjax.core.loop.integrate_pure`, one
+state stored per chunk). The run is the host-loop solver's step (`damjax.core.step.step`)
+and initial state (`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that
+depend on the calibrated parameters (p0, delta, u_r) are replaced by traced values.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from damjax.config import PSTParams
+from damjax.core.loop import integrate_pure
+from damjax.core.state import Model, State
+from damjax.diagnostics import smoothstep
+from damjax.materials import mcc, weak_layer
+from damjax.scenarios import slope
+
+CALIBRATED = ("tensile_strength", "softening")
+# relative width w of the damage ramp: wider than the 1D surrogate's 0.1, because after an
+# arrest the particles just ahead of the front sit well below u_r and a narrow ramp gives
+# them (and the loss) no gradient (measured: exactly 0 at w = 0.1, useful at w = 0.5)
+DAMAGE_WIDTH = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class SlopeProblem:
+    """A slope run prepared once (static layout, model template, initial state).
+
+    Attributes:
+        params: the parameters the template was built with.
+        setup: geometry and numerics.
+        layout: grid and step counts.
+        model: model template (its sigma_t- and delta-dependent leaves are replaced).
+        state: initial state.
+        xp, yp: particle reference positions [m] (numpy, (n,)).
+        p0_rule: MCC p0 rule.
+    """
+
+    params: PSTParams
+    setup: slope.SlopeSetup
+    layout: slope.SlopeLayout
+    model: Model
+    state: State
+    xp: np.ndarray
+    yp: np.ndarray
+
+
+def slope_problem(
+    params: PSTParams,
+    setup: slope.SlopeSetup,
+    *,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any = 0.0,
+) -> SlopeProblem:
+    """Build a `SlopeProblem` (the same model and initial state as `simulate_slope`).
+
+    Args:
+        params: slab and weak-layer parameters; tensile_strength must be finite (the
+            plastic branch is compiled in).
+        setup: geometry and numerics.
+        slope_deg: local slope angle [deg], scalar or (nx, ny) at the cell centres.
+        tau_peak: weak-layer strength [Pa], scalar or (nx, ny) at the cell centres.
+        fall_deg: local fall direction relative to -x [deg].
+    """
+    if not math.isfinite(float(params.tensile_strength)):
+        raise ValueError("slope_problem: tensile_strength must be finite (elasto-plastic slab)")
+    problems = slope._problems(params, setup, slope_deg, tau_peak)
+    if problems:
+        raise ValueError("\n".join(problems))
+    if setup.dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    layout = slope.make_layout(params, setup, float(np.max(slope_deg)))
+    model, state, xp, yp = slope.build(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    return SlopeProblem(params, setup, layout, model, state, xp, yp)
+
+
+def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> Model:
+    """The problem's model with sigma_t [Pa] and delta [-] (traceable) substituted."""
+    m = problem.model
+    dt = m.p0_init.dtype
+    p0 = mcc.p0_from_tensile_strength(
+        jnp.asarray(tensile_strength, dt), m.mcc_m, m.mcc_beta, problem.setup.p0_rule
+    )
+    delta = jnp.asarray(softening, dt)
+    _, u_res = weak_layer.critical_displacements(m.tau_peak, m.stiffness, delta)
+    return eqx.tree_at(lambda q: (q.p0_init, q.softening, q.u_res), m, (p0, delta, u_res))
+
+
+def particle_damage(model: Model, state: State, width: float = DAMAGE_WIDTH) -> Any:
+    """Smooth weak-layer damage per particle in [0, 1] (module doc; 1 where sawn)."""
+    finite = jnp.isfinite(model.u_res)
+    u_r = jnp.where(finite, model.u_res, 1.0)
+    z = (state.u_max / u_r - (1.0 - width)) / width
+    damage = jnp.where(finite, smoothstep(z), 0.0)
+    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
+    return jnp.maximum(damage, cut)
+
+
+@dataclasses.dataclass(frozen=True)
+class ObservationGrid:
+    """Cells of size `cell` [m] covering the release area: the grid observations live on."""
+
+    cell: float
+    shape: tuple[int, int]
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-centre coordinates x (nx,), y (ny,) [m]."""
+        return (np.arange(self.shape[0]) + 0.5) * self.cell, (
+            np.arange(self.shape[1]) + 0.5
+        ) * self.cell
+
+
+def observation_grid(setup: slope.SlopeSetup, cell: float) -> ObservationGrid:
+    """Observation cells of size `cell` [m] over the setup's release area."""
+    return ObservationGrid(
+        float(cell),
+        (int(math.ceil(setup.length / cell - 1e-9)), int(math.ceil(setup.width / cell - 1e-9))),
+    )
+
+
+def _bins(xp: np.ndarray, yp: np.ndarray, grid: ObservationGrid) -> tuple[np.ndarray, np.ndarray]:
+    ix = np.clip((xp / grid.cell).astype(int), 0, grid.shape[0] - 1)
+    iy = np.clip((yp / grid.cell).astype(int), 0, grid.shape[1] - 1)
+    flat = ix * grid.shape[1] + iy
+    return flat, np.bincount(flat, minlength=grid.shape[0] * grid.shape[1])
+
+
+def cell_average(values: Any, xp: np.ndarray, yp: np.ndarray, grid: ObservationGrid) -> Any:
+    """Average of per-particle values over the observation cells, (nx, ny) (JAX,
+    differentiable; empty cells are 0)."""
+    flat, count = _bins(xp, yp, grid)
+    n = grid.shape[0] * grid.shape[1]
+    s = jax.ops.segment_sum(values, jnp.asarray(flat), num_segments=n)
+    return jnp.reshape(s / jnp.maximum(jnp.asarray(count, s.dtype), 1.0), grid.shape)
+
+
+def damage_map(
+    problem: SlopeProblem,
+    tensile_strength: Any,
+    softening: Any,
+    grid: ObservationGrid,
+    width: float = DAMAGE_WIDTH,
+) -> Any:
+    """Smooth released fraction per observation cell (nx, ny) at the end of the run
+    (JAX; differentiable in sigta_t [Pa] and delta [-])."""
+    model = with_slab(problem, tensile_strength, softening)
+    final, _ = integrate_pure(
+        model, problem.state, problem.layout.n_chunks, problem.layout.chunk_steps
+    )
+    return cell_average(particle_damage(model, final, width), problem.xp, problem.yp, grid)
+
+
+def release_loss(damage: Any, observed: Any) -> Any:
+    """Mean squared difference between damage and observed release (maps, or per
+    particle with the observed map sampled at each particle's cell) [-]."""
+    obs = jnp.asarray(observed, damage.dtype)
+    return jnp.mean((damage - obs) ** 2)
+
+
+def observed_release(
+    result: slope.SlopeResult,
+    grid: ObservationGrid,
+    *,
+    noise_std: float = 0.0,
+    seed: int = 0,
+) -> np.ndarray:
+    """An observed release map from a (finer) reference run: the released fraction of each
+    observation cell, plus Gaussian noise of `noise_std`, thresholded at 1/2 (a mapped
+    release polygon with mapping errors near its edge) [0/1 float array]."""
+    cx = np.repeat(result.x, result.y.size)
+    cy = np.tile(result.y, result.x.size)
+    broken = np.isfinite(result.arrival_time).ravel().astype(float)
+    flat, count = _bins(cx, cy, grid)
+    frac = np.bincount(flat, weights=broken, minlength=count.size) / np.maximum(count, 1)
+    frac = frac.reshape(grid.shape)
+    if noise_std > 0:
+        frac = frac + np.random.default_rng(seed).normal(0.0, noise_std, frac.shape)
+    return (frac > 0.5).astype(float)
+
+
+@dataclasses.dataclass
+class SlopeCalibration:
+    """Result of `calibrate_slope`.
+
+    Attributes:
+        estimates: fitted values (sigma_t [Pa], delta [-]).
+        loss: final misfit [-].
+        history: per iteration, the loss and the parameter values.
+        gradient: d loss / d log(parameter) at the last iterate.
+        wall_time_s: wall time of the whole calibration, compilation included [s].
+    """
+
+    estimates: dict[str, float]
+    loss: float
+    history: list[dict[str, float]]
+    gradient: dict[str, float]
+    wall_time_s: float
+
+
+def loss_and_grad(
+    problem: SlopeProblem,
+    observed: Any,
+    grid: ObservationGrid,
+    fields: Sequence[str],
+    width: float = DAMAGE_WIDTH,
+) -> Any:
+    """jitted ``f(log_values (k,), fixed (2,)) -> (loss, d loss / d log_values)``, the
+    per-particle release loss (module doc), for the
+    calibrated `fields` (a subset of ("tensile_strength", "softening")); ``fixed`` holds
+    (sigma_t, delta) for the fields not calibrated."""
+    idx = [CALIBRATED.index(f) for f in fields]
+    flat, _ = _bins(problem.xp, problem.yp, grid)
+    obs_p = jnp.asarray(np.asarray(observed, dtype=float).ravel()[flat])
+
+    def loss(logv: Any, fixed: Any) -> Any:
+        vals = fixed
+        for k, i in enumerate(idx):
+            vals = vals.at[i].set(jnp.exp(logv[k]))
+        model = with_slab(problem, vals[0], vals[1])
+        final, _ = integrate_pure(
+            model, problem.state, problem.layout.n_chunks, problem.layout.chunk_steps
+        )
+        return release_loss(particle_damage(model, final, width), obs_p)
+
+    return jax.jit(jax.value_and_grad(loss))
+
+
+def calibrate_slope(
+    problem: SlopeProblem,
+    observed: Any,
+    grid: ObservationGrid,
+    *,
+    fields: Sequence[str] = ("tensile_strength",),
+    initial: dict[str, float] | None = None,
+    steps: int = 20,
+    learning_rate: float = 0.1,
+    tol: float = 1e-3,
+    progress: bool = False,
+) -> SlopeCalibration:
+    """Fit `fields` (sigma_t [Pa], delta [-]) so the simulated release map matches
+    `observed` (an (nx, ny) map on `grid`, 1 = released).
+
+    Adam (optax) over the logarithms (positivity, relative steps), learning rate
+    `learning_rate` decaying as 1 / sqrt(1 + k / 5); stops after `steps` iterations or
+    when the relative change of every parameter falls below `tol`. The fields not fitted
+    keep their `initial` value or the problem's parameters.
+    """
+    import time
+
+    bad = [f for f in fields if f not in CALIBRATED]
+    if bad:
+        raise ValueError(f"calibrate_slope: cannot fit {bad}; choose from {CALIBRATED}")
+    p = problem.params
+    start = {"tensile_strength": float(p.tensile_strength), "softening": float(p.softening)}
+    start.update(initial or {})
+    if start["softening"] <= 0 and "softening" in fields:
+        raise ValueError("calibrate_slope: fitting softening needs a positive initial value")
+    dtype = problem.model.p0_init.dtype
+    fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
+    x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
+    vg = loss_and_grad(problem, observed, grid, fields)
+    sched = optax.scale_by_schedule(lambda k: 1.0 / jnp.sqrt(1.0 + k / 5.0))
+    opt = optax.chain(optax.adam(learning_rate), sched)
+    st = opt.init(x)
+    hist: list[dict[str, float]] = []
+    t0 = time.perf_counter()
+    g = x
+    val = jnp.asarray(math.nan)
+    for k in range(steps):
+        val, g = vg(x, fixed)
+        row = {"loss": float(val), **{f: math.exp(float(x[i])) for i, f in enumerate(fields)}}
+        hist.append(row)
+        if progress:
+            print(f"[calibrate_slope] {k}: {row}", flush=True)
+        upd, st = opt.update(g, st)
+        x_new = optax.apply_updates(x, upd)
+        done = bool(jnp.all(jnp.abs(x_new - x) < tol))
+        x = x_new
+        if done:
+            break
+    est = dict(start)
+    est.update({f: math.exp(float(x[i])) for i, f in enumerate(fields)})
+    return SlopeCalibration(
+        estimates={f: est[f] for f in CALIBRATED},
+        loss=float(val),
+        history=hist,
+        gradient={f: float(g[i]) for i, f in enumerate(fields)},
+        wall_time_s=time.perf_counter() - t0,
+    )
