@@ -24,7 +24,7 @@ from typing import Any
 from damjax.config import PSTParams, PSTSetup, setup_problems
 
 _PARAM_FIELDS = [f.name for f in dataclasses.fields(PSTParams)]
-_SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n != "strength_profile"]
+_SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n not in ("strength_profile", "slope_profile")]
 _SETUP_FIELDS = [
     "length",
     "dx",

@@ -56,6 +56,11 @@ class PSTParams(eqx.Module):
             spaced points spanning [0, length] of the PST, linearly interpolated at the
             particles (a differentiable array field; see `damjax.fields`). None (default)
             uses tau_peak, steady_length and strength_gradient.
+        slope_profile: optional slope angle psi [deg] at m >= 2 equally spaced points
+            spanning [0, length] of the PST (e.g. a convex roll,
+            `damjax.terrain.pst_slope_angle`), linearly interpolated at the particles:
+            gravity's slope-parallel and normal parts (hence the friction cap) follow the
+            local angle. A differentiable array field; None (default) uses slope_deg.
     """
 
     slope_deg: Any = 35.0
@@ -76,6 +81,11 @@ class PSTParams(eqx.Module):
     mcc_beta: Any = 1.2
     mcc_xi: Any = 0.0
     strength_profile: Any = None
+    slope_profile: Any = None
+
+
+# PSTParams fields that are arrays over x (a batch of them has shape (B, m))
+PROFILE_FIELDS = ("strength_profile", "slope_profile")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,6 +216,14 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
         elif any(math.isnan(v) or not v > 0 for v in prof):
             bad = next(v for v in prof if math.isnan(v) or not v > 0)
             problems.append(_problem("strength_profile", bad, "(0, inf] Pa (every value)"))
+    if params.slope_profile is not None:
+        prof = _leaf_values(params.slope_profile)
+        shape = np.shape(params.slope_profile)
+        if prof is None or len(shape) < 1 or shape[-1] < 2:
+            problems.append(_problem("slope_profile", "...", "arrays of >= 2 values [deg]"))
+        elif any(math.isnan(v) or not 0 < v < 90 for v in prof):
+            bad = next(v for v in prof if math.isnan(v) or not 0 < v < 90)
+            problems.append(_problem("slope_profile", bad, "(0, 90) deg (every value)"))
     for name, (ok, valid) in PARAM_RULES.items():
         values = _leaf_values(getattr(params, name))
         if values is None or not values:
@@ -225,6 +243,15 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
     except Exception:  # pragma: no cover - defensive: numbers already validated
         return problems
     import numpy as np
+
+    if params.slope_profile is not None:  # the steepest point loads the layer most
+        psi_max = np.max(np.asarray(params.slope_profile, dtype=float), axis=-1)
+        tau_g = (
+            np.asarray(params.density, dtype=float)
+            * G_ACC
+            * np.asarray(params.thickness, dtype=float)
+            * np.sin(np.radians(psi_max))
+        )
 
     if setup is not None and not setup.controlled:
         tau_min = (
@@ -281,9 +308,7 @@ def setup_problems(setup: PSTSetup) -> list[str]:
         problems.append(_problem("p0_rule", setup.p0_rule, "{" + ", ".join(P0_RULES) + "}"))
     if getattr(setup, "mcc_invariants", "3d") not in MCC_INVARIANTS:
         problems.append(
-            _problem(
-                "mcc_invariants", setup.mcc_invariants, "{" + ", ".join(MCC_INVARIANTS) + "}"
-            )
+            _problem("mcc_invariants", setup.mcc_invariants, "{" + ", ".join(MCC_INVARIANTS) + "}")
         )
     if setup.dtype not in DTYPES:
         problems.append(_problem("dtype", setup.dtype, "{" + ", ".join(DTYPES) + "}"))

@@ -23,7 +23,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from damjax.config import PSTParams, PSTSetup, validate
+from damjax.config import PROFILE_FIELDS, PSTParams, PSTSetup, validate
 from damjax.core.loop import RunInfo, run_chunk
 from damjax.scenarios import pst
 
@@ -35,7 +35,7 @@ def batch_size_of(params: PSTParams) -> int:
         v = getattr(params, f.name)
         if v is None:
             continue
-        nd = np.ndim(v) - (1 if f.name == "strength_profile" else 0)
+        nd = np.ndim(v) - (1 if f.name in PROFILE_FIELDS else 0)
         if nd >= 1:
             sizes.add(int(np.shape(v)[0]))
     if len(sizes) > 1:
@@ -52,7 +52,7 @@ def broadcast_batch(params: PSTParams, n: int) -> PSTParams:
             kw[f.name] = None
             continue
         a = np.asarray(v, dtype=float)
-        base_nd = 1 if f.name == "strength_profile" else 0
+        base_nd = 1 if f.name in PROFILE_FIELDS else 0
         if a.ndim == base_nd:
             a = np.broadcast_to(a, (n,) + a.shape)
         kw[f.name] = np.array(a)
@@ -64,8 +64,11 @@ def member(params_batch: PSTParams, i: int) -> PSTParams:
     kw = {}
     for f in dataclasses.fields(params_batch):
         v = getattr(params_batch, f.name)
-        kw[f.name] = None if v is None else (np.asarray(v)[i] if f.name == "strength_profile"
-                                             else float(np.asarray(v)[i]))
+        kw[f.name] = (
+            None
+            if v is None
+            else (np.asarray(v)[i] if f.name in PROFILE_FIELDS else float(np.asarray(v)[i]))
+        )
     return PSTParams(**kw)
 
 
@@ -103,8 +106,9 @@ def sweep(
 
     n_dev = len(jax.devices()) if shard else 1
     pad = (-n) % n_dev
-    leaves = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)])
-                          if pad else a, batch)
+    leaves = jax.tree.map(
+        lambda a: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]) if pad else a, batch
+    )
     build = jax.vmap(lambda p: pst.build(p, setup, layout))
     models, states = jax.jit(build)(leaves)
     if n_dev > 1:
@@ -117,6 +121,7 @@ def sweep(
     if batch_size is None or batch_size >= n + pad:
         chunk_fn = jax.jit(jax.vmap(one_chunk))
     else:
+
         def chunk_fn_impl(models: Any, states: Any) -> tuple[Any, Any]:
             return jax.lax.map(lambda ms: one_chunk(*ms), (models, states), batch_size=batch_size)
 
@@ -155,8 +160,9 @@ def sweep(
         info_i = RunInfo()
         info_i.compile_time_s = info.compile_time_s
         info_i.wall_time_s = info.wall_time_s / n  # per simulation
-        results.append(pst.finish(member(batch, i), setup, layout, m_i, s_i, tips_all[i],
-                                  snaps_i, info_i))
+        results.append(
+            pst.finish(member(batch, i), setup, layout, m_i, s_i, tips_all[i], snaps_i, info_i)
+        )
     return results
 
 

@@ -172,7 +172,7 @@ def test_all_problems_reported_at_once():
 
 def test_missing_and_wrong_top_level_keys():
     with pytest.raises(ValueError) as exc:
-        scenario.loads('name = "x y"\ntype = "slope"\ndescription = 3\nparams = 5')
+        scenario.loads('name = "x y"\ntype = "avalanche"\ndescription = 3\nparams = 5')
     lines = assert_clean(exc.value)
     assert {line.split()[0].rstrip(":") for line in lines} == {
         "name",

@@ -62,8 +62,12 @@ def time_step(params: PSTParams, setup: PSTSetup) -> float:
 
 
 def _slide_accel(params: PSTParams) -> float:
-    """Acceleration of a fully released slab, g (sin psi - cos psi tan phi) >= 0 [m/s^2]."""
-    psi = np.radians(np.asarray(params.slope_deg, dtype=float))
+    """Acceleration of a fully released slab, g (sin psi - cos psi tan phi) >= 0 [m/s^2]
+    (at the steepest point of a slope profile)."""
+    if params.slope_profile is None:
+        psi = np.radians(np.asarray(params.slope_deg, dtype=float))
+    else:
+        psi = np.radians(np.max(np.asarray(params.slope_profile, dtype=float), axis=-1))
     phi = np.radians(np.asarray(params.friction_deg, dtype=float))
     return float(np.max(np.maximum(G_ACC * (np.sin(psi) - np.cos(psi) * np.tan(phi)), 0.0)))
 
@@ -123,10 +127,15 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     x_ref = (cell0[0] - layout.pad_cells + frac0[0]) * dx  # [m] along the PST
     n = x_ref.size
 
-    psi = jnp.deg2rad(f(params.slope_deg))
     phi = jnp.deg2rad(f(params.friction_deg))
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     x_ref_j = jnp.asarray(x_ref, dtype)
+    if params.slope_profile is not None:  # psi(x) at the particles' reference positions
+        sprof = jnp.asarray(params.slope_profile, dtype)
+        xs_psi = jnp.linspace(0.0, setup.length, sprof.shape[-1], dtype=dtype)
+        psi = jnp.deg2rad(jnp.interp(x_ref_j, xs_psi, sprof))
+    else:
+        psi = jnp.deg2rad(f(params.slope_deg))
     if setup.controlled:
         tau_p = jnp.full((n,), jnp.inf, dtype)
     elif params.strength_profile is not None:
