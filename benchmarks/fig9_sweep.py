@@ -23,6 +23,25 @@ both. Output: one JSON line per member (``params``, ``arrested``, ``L_ca_m``,
 ``--fig8``: theta = 30 and 150 Pa/m, sigma_t = 6 kPa, softening 0, 100 m, dx 0.02 m,
 with ``--lateral`` (default "constrained", the non-default condition): arrest position
 and fracture count of each.
+
+Measured (commit a618928, MCC with 3D invariants, paper Eq. 6 p0; 1 CPU core shared with
+other jobs; sweep 278 s for 29 members at dx 0.04 m; A_ca [m] (fracture count)):
+
+    theta    20: 69.5 (2) | 30: 46.5 (1) | 50: 28.0 (1) | 100: 14.2 (2) | 150: 9.6 (1)
+            300:  5.0 (1) | 1000: 1.7 (1)            (all arrest, theta 20 at 89.5 m)
+    sigma_t 2/4/6/8/10 kPa, theta 50:   4.9  16.3  28.0  39.8  51.7   (grows, ~5.9 m/kPa)
+                            theta 300:  1.1   3.1   5.0   7.0   8.9   (grows, ~1 m/kPa)
+    E 2/4/6 MPa,            theta 50:  42.6  28.0  21.6               (falls)
+                            theta 300:  7.3   5.0   4.0               (falls)
+    L_ss 10/20/30 m,        theta 50:  28.0  28.0  28.0               (no L_ss effect)
+                            theta 1000: 1.5   1.7   1.7               (flat; paper: falls)
+    dx check (theta 300): L_ca 24.99 m at dx 0.04, 24.945 m at dx 0.02, one fracture
+    (24.91 / 24.92 m).
+    Fig. 8, constrained, dx 0.02 m (139 s for both): theta 30 no arrest, 4 fractures
+    (38.7, 46.2, 61.0, 73.6 m); theta 150 arrests at 36.83 m, 1 fracture (36.74 m).
+
+Fracture counts do not separate by theta as cleanly as the paper's Fig. 9 (multiple below,
+single above ~100 Pa/m): two at theta 20 and 100, one elsewhere.
 """
 
 from __future__ import annotations
