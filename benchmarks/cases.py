@@ -326,6 +326,8 @@ _SLOPE_KEYS = (
     "stauchwall_area_m2",
     "slab_fracture_area_m2",
     "critical_cut_radius_m",
+    "last_failure_time_s",
+    "front_quiet_at_end",
     "start_m",
     "fault",
 )

@@ -35,6 +35,7 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--ppc", type=int, default=1, help="particles per cell and dimension")
     ap.add_argument("--width", type=float, default=60.0, help="cross-slope width [m]")
     ap.add_argument("--no-controls", action="store_true", help="skip the two controls")
+    ap.add_argument("--only", default="", help="comma-separated run names (seed0,...,planar)")
     a = ap.parse_args(argv)
     base = GenericSlopeCase(dx=a.dx, duration=a.duration, particles_per_cell=a.ppc, width=a.width)
     runs = [(f"seed{k}", dataclasses.replace(base, seed=k)) for k in range(a.seeds)]
@@ -43,6 +44,9 @@ def main(argv: list[str]) -> int:
             ("no_trend", dataclasses.replace(base, trend=0.0)),
             ("planar", dataclasses.replace(base, planar=True)),
         ]
+    if a.only:
+        keep = set(a.only.split(","))
+        runs = [(n, c) for n, c in runs if n in keep]
     rows = []
     for name, case in runs:
         row = dict(
@@ -55,6 +59,8 @@ def main(argv: list[str]) -> int:
         emit(**row)
         rows.append(row)
     seeds = [r for r in rows if r["run"].startswith("seed")]
+    if not seeds:
+        return 0
     up = np.array([r["upslope_arrest_distance_m"] for r in seeds])
     pos = np.array([r["upslope_arrest_position_m"] for r in seeds])
     cross = [r["crossslope_crack_speed_over_cs"] for r in seeds]

@@ -216,7 +216,7 @@ class SlopeCalibration:
 
     Attributes:
         estimates: fitted values (sigma_t [Pa], delta [-]).
-        loss: final misfit [-].
+        loss: misfit at the last evaluated iterate (the estimates are one Adam step on) [-].
         history: per iteration, the loss and the parameter values.
         gradient: d loss / d log(parameter) at the last iterate.
         wall_time_s: wall time of the whole calibration, compilation included [s].

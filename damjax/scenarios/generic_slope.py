@@ -184,6 +184,13 @@ def run_generic_slope(
     s = res.summary
     s["upslope_arrest_position_m"] = start[0] + s["upslope_arrest_distance_m"]
     s["start_m"] = [start[0], start[1]]
+    # the crack front is still moving at the end unless no weak layer failed in the last
+    # 0.3 s (`damjax.diagnostics.ARREST_QUIET`): "below the top" alone may be a crack
+    # that simply ran out of simulated time
+    at = res.arrival_time[np.isfinite(res.arrival_time)]
+    last = float(at.max()) if at.size else math.nan
+    s["last_failure_time_s"] = last
+    s["front_quiet_at_end"] = bool(case.duration - last >= 0.3 - 1e-9)
     i = min(int(start[0] / case.dx), psi.shape[0] - 1)
     s["start_slope_deg"] = float(psi[i, 0])
     s["case"] = {
