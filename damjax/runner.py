@@ -12,6 +12,10 @@ A run writes into its output folder (every file atomically, see `damjax.io`):
   per-chunk crack tips and snapshots so far, the number of chunks done and the scenario.
   It is removed once the outputs are written.
 
+Slope scenarios write ``results.nc``, ``summary.json``, ``final_state.npz``,
+``slope.png`` and ``release.gif`` instead (`damjax.slope_scenario`), and checkpoint the
+same way.
+
 `resume` continues a checkpoint with `simulate_pst(state=..., start_chunk=...,
 history=...)`; chunks are the unit of work, so a resumed run repeats at most the chunks
 done since the last checkpoint and its results are bitwise those of an uninterrupted run.
@@ -148,6 +152,15 @@ def _prepare(scn: Scenario) -> tuple[Any, Any, Any, Any]:
 
     if scn.setup.dtype == "float64":
         jax.config.update("jax_enable_x64", True)
+    if scn.type == "slope":
+        from damjax import slope_scenario
+        from damjax.scenarios import slope
+
+        psi, fall, tau, start = slope_scenario.resolve_fields(scn)
+        setup = dataclasses.replace(scn.setup, start=start)
+        layout = slope.make_layout(scn.params, setup, float(np.max(psi)))
+        model, state, _, _ = slope.build(scn.params, setup, layout, psi, tau, fall)
+        return slope, layout, model, state
     layout = pst.make_layout(scn.params, scn.setup)
     model, state = pst.build(scn.params, scn.setup, layout)
     return pst, layout, model, state
@@ -187,7 +200,9 @@ def run(
     for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
         (out / name).unlink(missing_ok=True)
     if scn.type == "slope":
-        return _run_slope(scn, out, checkpoint_every, progress)
+        n_chunks = _prepare(scn)[1].n_chunks
+        rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
+        return _run_slope(scn, out, rec, progress, None)
     from damjax.scenarios.pst import make_layout
 
     n_chunks = make_layout(scn.params, scn.setup).n_chunks
@@ -230,6 +245,9 @@ def resume(
     io.remove_stale_temporaries(out)
     rec = _Recorder(out, scn, int(ck["n_chunks"]), checkpoint_every, on_chunk)
     rec.saved_chunk = chunk
+    if scn.type == "slope":
+        resume_args = dict(state=state, start_chunk=chunk, history=(tips, snaps))
+        return _run_slope(scn, out, rec, progress, chunk, **resume_args)
     result = _simulate(scn, rec, progress, state=state, start_chunk=chunk, history=(tips, snaps))
     return _finish(scn, out, result, rec, chunk)
 
@@ -316,19 +334,24 @@ def _finish(
 
 
 def _run_slope(
-    scn: Scenario, out: Path, checkpoint_every: float | None, progress: bool
+    scn: Scenario,
+    out: Path,
+    rec: _Recorder,
+    progress: bool,
+    resumed_from: int | None,
+    **resume: Any,
 ) -> RunOutcome:
     """A slope scenario: results.nc (maps and snapshots), summary.json, slope.png and
-    release.gif. Slope runs are not checkpointed (``checkpoint_every`` only warns)."""
+    release.gif; checkpoints through ``rec`` as for PSTs (``resume``: state, start_chunk,
+    history)."""
     from damjax import slope_scenario
 
-    if checkpoint_every is not None:
-        warnings.warn(
-            "checkpoint/resume is not implemented for slope scenarios: this run writes no "
-            "checkpoint",
-            stacklevel=3,
-        )
-    result = slope_scenario.simulate(scn, progress=progress)
+    try:
+        result = slope_scenario.simulate(scn, progress=progress, callback=rec, **resume)
+    except KeyboardInterrupt:
+        if rec.every is not None:
+            rec.save()
+        raise
     summary = dict(result.summary)
     stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
     ds = slope_scenario.result_dataset(result, snapshots=scn.output.snapshots)
@@ -364,11 +387,15 @@ def _run_slope(
         "scenario": scn.name,
         "damjax_version": _version(),
         **summary,
-        "resumed_from_chunk": None,
+        "resumed_from_chunk": resumed_from,
         "out_dir": str(out),
     }
+    if rec.last is not None:
+        files["final_state"] = out / FINAL_STATE
+        io.write_npz(files["final_state"], rec.last.state)
     io.write_json(files["summary"], full)
-    return RunOutcome(scn, result, out, files, full, None)
+    (out / CHECKPOINT).unlink(missing_ok=True)
+    return RunOutcome(scn, result, out, files, full, resumed_from)
 
 
 # --------------------------------------------------------------------------- reading back

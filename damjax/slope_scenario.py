@@ -596,9 +596,10 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
     return slope, fall, tau, start
 
 
-def simulate(scn: Any, progress: bool = False) -> Any:
+def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
     """Run a slope scenario: `simulate_slope` on the resolved fields (`SlopeResult`).
 
+    ``resume``: `simulate_slope`'s state, start_chunk, history and callback (checkpoints).
     The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]),
     ``start_m`` and ``start_slope_deg``.
     """
@@ -609,7 +610,13 @@ def simulate(scn: Any, progress: bool = False) -> Any:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         res = simulate_slope(
-            scn.params, setup, slope_deg=slope, tau_peak=tau, fall_deg=fall, progress=progress
+            scn.params,
+            setup,
+            slope_deg=slope,
+            tau_peak=tau,
+            fall_deg=fall,
+            progress=progress,
+            **resume,
         )
     s = res.summary
     s["upslope_arrest_position_m"] = start[0] + s["upslope_arrest_distance_m"]

@@ -367,6 +367,10 @@ def simulate_slope(
     tau_peak: Any = None,
     fall_deg: Any = 0.0,
     progress: bool = False,
+    state: State | None = None,
+    start_chunk: int = 0,
+    history: tuple[list[Any], list[Any]] | None = None,
+    callback: Any = None,
 ) -> SlopeResult:
     """Run a slope-scale release.
 
@@ -379,6 +383,11 @@ def simulate_slope(
             Gaussian random field from `damjax.fields`).
         fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
         progress: tqdm progress bar.
+        state, start_chunk, history: resume from a saved state after ``start_chunk``
+            chunks, with the per-chunk tip arrays and snapshots recorded before it (as
+            `damjax.scenarios.pst.simulate_pst`).
+        callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
+            whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
     setup = SlopeSetup() if setup is None else setup
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
@@ -389,10 +398,24 @@ def simulate_slope(
     if setup.dtype == "float64":
         jax.config.update("jax_enable_x64", True)
     layout = make_layout(params, setup, float(np.max(slope_deg)))
-    model, state, xp, yp = build(params, setup, layout, slope_deg, tau_peak, fall_deg)
-    final, tips, snaps, info = integrate(
-        model, state, layout.n_chunks, layout.chunk_steps, snapshot=_snapshot, progress=progress
+    model, state0, xp, yp = build(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    tips_before, snaps_before = history if history is not None else ([], [])
+
+    def _callback(c: int, st: State, tips: list[Any], snaps: list[Any]) -> None:
+        if callback is not None:
+            callback(c, st, tips_before + tips, snaps_before + snaps)
+
+    final, _, snaps, info = integrate(
+        model,
+        state0 if state is None else state,
+        layout.n_chunks,
+        layout.chunk_steps,
+        snapshot=_snapshot,
+        progress=progress,
+        callback=_callback,
+        start_chunk=start_chunk,
     )
+    snaps = snaps_before + snaps
     cell0 = np.asarray(model.cell0)
 
     def cm(v: Any, r: str = "mean") -> np.ndarray:
@@ -432,7 +455,7 @@ def simulate_slope(
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
         "n_particles": int(xp.size),
-        "n_steps": int(info.steps_done),
+        "n_steps": int(start_chunk * layout.chunk_steps + info.steps_done),
         "compile_time_s": info.compile_time_s,
         "wall_time_s": info.wall_time_s,
         "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
