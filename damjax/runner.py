@@ -436,8 +436,13 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
 
 
 def load_final_state(out_dir: str | os.PathLike[str]) -> Any:
-    """The final `State` of a finished run (``final_state.npz``)."""
-    scn, _ = load_result(out_dir)
+    """The final `State` of a finished run (``final_state.npz``; PST or slope)."""
+    path = Path(out_dir) / RESULTS
+    text = io.open_dataset(path).attrs.get("scenario", "") if path.is_file() else ""
+    if 'type = "slope"' in text:
+        scn = scenario.loads(text, warn=False)
+    else:
+        scn, _ = load_result(out_dir)
     _, _, _, template = _prepare(scn)
     return io.arrays_to_tree(io.read_npz(Path(out_dir) / FINAL_STATE), template, "state")
 
