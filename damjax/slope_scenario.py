@@ -677,13 +677,22 @@ def read_setup_params(text: str) -> tuple[Any, PSTParams]:
 
 
 def result_dataset(result: Any, snapshots: bool = True) -> Any:
-    """`SlopeResult.to_dataset` with the crack-speed map, float32 snapshots (or none)."""
+    """`SlopeResult.to_dataset` with the crack-speed map, crown / stauchwall / released
+    masks (0/1 on the cell grid), float32 snapshots (or none)."""
     ds = result.to_dataset()
     ds["crack_speed"] = (("x", "y"), crack_speed_map(result))
     ds["crack_speed"].attrs = {
         "units": "m s-1",
         "long_name": "local crack speed |grad arrival_time|^-1 (1 m box-smoothed)",
     }
+    h0 = float(result.params.thickness)
+    for name, mask, what in (
+        ("crown", result.height < 0.98 * h0, "tensile fracture (crown): h < 0.98 h0"),
+        ("stauchwall", result.height > 1.02 * h0, "compression (stauchwall): h > 1.02 h0"),
+        ("released", np.isfinite(result.arrival_time), "weak layer failed"),
+    ):
+        ds[name] = (("x", "y"), mask.astype(np.int8))
+        ds[name].attrs = {"units": "1", "long_name": what, "flag_values": "0 1"}
     names = [n for n in ds.variables if "snapshot" in ds[n].dims]
     if not snapshots:
         ds = ds.drop_vars(names)

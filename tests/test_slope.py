@@ -129,6 +129,7 @@ def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
     assert np.all(np.isfinite(ds["height"].values))
     assert 'type = "slope"' in ds.attrs["scenario"] and ds.attrs["damjax_version"]
     assert ds["slope_angle"].values == pytest.approx(35.0, abs=1e-3)
+    assert ds["released"].values.sum() * 0.01 == pytest.approx(summary["release_area_m2"])
     (out / "slope.png").unlink()
     assert main(["show", str(out), "--json"]) == 0
     shown = json.loads(capsys.readouterr().out)
