@@ -37,7 +37,7 @@ differences over 2.5-5 Pa/m). Use delta > 0 for gradient-based work.
 When a slab fracture stops the crack, the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no particle sits in the
 default ramp (0.9-1.0 u_r) and the gradient is exactly zero although the arrest moves
-(measured with the regime check of `benchmarks/inversion.py` on a 20 m PST, L_ss 8 m,
+(measured like the regime check of `benchmarks/inversion.py`, on a 20 m PST, L_ss 8 m,
 theta 300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m: d L / d sigma_t = 0 by AD against 0.99 m/kPa by
 central differences, d L / d delta = 0 against -1.75 m). A wider ramp, ``width`` = 0.5
 (= delta / (1 + delta) for delta = 1: damage over the whole softening branch u_c..u_r),
