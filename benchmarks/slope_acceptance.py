@@ -17,7 +17,7 @@ Measured (commit 9bb6f15 + MCC '3d' invariants of a618928; dx 0.2 m, 1 particle 
 75 000 particles, 2800 steps, float32; 2 CPU cores at load average ~7 from other jobs;
 rows in `slope_acceptance_results.jsonl`):
 
-| run | from start [m] | position [m] | up / c_s | cross / c_s | area [m^2] | crown [m^2] | wall [s] |
+| run | from start | position | up/c_s | cross/c_s | area m^2 | crown m^2 | wall s |
 |---|---|---|---|---|---|---|---|
 | seed 0 | 29.2 | 41.3 | 0.82 | 0.74 | 2110 | 56 | 150 (+11 compile) |
 | seed 1 | 21.2 | 33.3 | 0.68 | 0.63 | 818 | 0 | 144 |
