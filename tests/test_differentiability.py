@@ -51,16 +51,32 @@ def test_gradient_matches_central_differences_at_two_steps(smooth_fn, name):
         assert abs(fd / ad - 1) <= 0.05, (name, rel, ad, fd)
 
 
-def test_tensile_strength_gradient_matches_central_differences(smooth_fn):
-    """sigma_t where the slab yields (MCC) but does not fracture: the arrest moves smoothly."""
-    f, g = smooth_fn
-    q = dataclasses.replace(PARAMS, tensile_strength=4200.0)
+def test_tensile_strength_gradient_matches_central_differences():
+    """sigma_t where the slab yields (MCC) but does not fracture: the arrest moves smoothly.
+
+    The plastic slab caps the tension ahead of the tip, so the layer there stays below
+    0.9 u_r and the default 10 % damage ramp holds no particle: the surrogate is a
+    multiple of the particle spacing with a zero gradient (measured: 5.025 m at
+    sigma_t = 4200 Pa). The ramp over the whole softening branch, w = delta / (1 + delta)
+    = 0.5 (the documented choice for plastic slabs), keeps particles in it. That
+    surrogate is piecewise smooth (kinks where a particle enters the plastic branch or
+    the ramp), so central differences are compared at a point with no kink within the
+    steps: measured AD 3.956e-4 vs FD 3.986e-4 / 3.979e-4 / 3.964e-4 m/Pa (steps 0.1, 0.25,
+    0.5 %) at 4500 Pa, f32 and f64 alike.
+    """
+    layout = pst.make_layout(PARAMS, SETUP)
+    f = jax.jit(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5))
+    g = jax.jit(jax.grad(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5)))
+    q = dataclasses.replace(PARAMS, tensile_strength=4500.0)
+    r = damjax.simulate_pst(q, SETUP)
+    assert r.fractures == []  # no slab fracture ...
+    assert float(np.max(r.opening)) > 0.0  # ... but the slab has yielded
     ad = float(g(q).tensile_strength)
     assert ad > 0.0  # a stronger slab carries more tension: the crack runs further
     for rel in (2.5e-3, 5e-3):
-        h = rel * 4200.0
-        fd = (float(f(dataclasses.replace(q, tensile_strength=4200.0 + h)))
-              - float(f(dataclasses.replace(q, tensile_strength=4200.0 - h)))) / (2 * h)
+        h = rel * 4500.0
+        fd = (float(f(dataclasses.replace(q, tensile_strength=4500.0 + h)))
+              - float(f(dataclasses.replace(q, tensile_strength=4500.0 - h)))) / (2 * h)
         assert abs(fd / ad - 1) <= 0.05, (rel, ad, fd)
 
 
