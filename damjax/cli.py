@@ -211,6 +211,15 @@ class _WarningPrinter:
         self._ctx.__exit__(*exc)
 
 
+def _run_flags(p: argparse.ArgumentParser, checkpoint_help: str) -> None:
+    """--json, --quiet and --checkpoint-every, shared by `run` and `resume`."""
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--checkpoint-every", metavar="SECONDS", type=_seconds, default=None, help=checkpoint_help
+    )
+
+
 def _seconds(text: str) -> float:
     try:
         v = float(text)
@@ -327,28 +336,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
     p.add_argument("--out", metavar="DIR", help="output folder (default ./damjax-out/<name>)")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--checkpoint-every",
-        metavar="SECONDS",
-        type=_seconds,
-        default=None,
-        help="write DIR/checkpoint.npz every SECONDS of wall-clock time (0: every chunk)",
-    )
+    _run_flags(p, "write DIR/checkpoint.npz every SECONDS of wall-clock time (0: every chunk)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("resume", help="continue a checkpointed run in DIR")
     p.add_argument("dir", metavar="DIR", help="output folder holding checkpoint.npz")
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--checkpoint-every",
-        metavar="SECONDS",
-        type=_seconds,
-        default=None,
-        help="checkpoint interval (default: that of the interrupted run)",
-    )
+    _run_flags(p, "checkpoint interval (default: that of the interrupted run)")
     p.set_defaults(func=cmd_resume)
 
     p = sub.add_parser("show", help="print the summary and re-plot a finished run in DIR")

@@ -76,18 +76,20 @@ def integrate(
     progress: bool = False,
     callback: Callable[[int, State, list[Any], list[Any]], None] | None = None,
     start_chunk: int = 0,
+    history: tuple[list[Any], list[Any]] | None = None,
 ) -> tuple[State, np.ndarray, list[Any], RunInfo]:
     """Run chunks ``start_chunk .. n_chunks-1`` on the host; stop at the first fault.
 
     Returns the final state, the crack tip after every step done (numpy), the snapshots
     taken at the end of every chunk, and timings. ``callback(chunk, state, tips, snaps)``
     runs after each chunk with the per-chunk tip arrays and snapshots so far
-    (checkpointing).
+    (checkpointing). ``history``: the per-chunk tips and snapshots of the chunks before
+    ``start_chunk`` (a resumed run); they lead every list passed on and returned.
     """
     info = RunInfo()
     exe, info.compile_time_s = compile_chunk(model, state, chunk_steps)
-    tips: list[np.ndarray] = []
-    snaps: list[Any] = []
+    tips: list[np.ndarray] = list(history[0]) if history is not None else []
+    snaps: list[Any] = list(history[1]) if history is not None else []
     bar = None
     if progress:
         from tqdm.auto import tqdm

@@ -304,12 +304,6 @@ def simulate_pst(
         jax.config.update("jax_enable_x64", True)
     layout = make_layout(params, setup)
     model, state0 = build(params, setup, layout)
-    tips_before, snaps_before = history if history is not None else ([], [])
-
-    def _callback(c: int, st: State, tips: list[Any], snaps: list[Any]) -> None:
-        if callback is not None:
-            callback(c, st, tips_before + tips, snaps_before + snaps)
-
     final, tips, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -317,11 +311,11 @@ def simulate_pst(
         layout.chunk_steps,
         snapshot=_snapshot,
         progress=progress,
-        callback=_callback,
+        callback=callback,
         start_chunk=start_chunk,
+        history=history,
     )
-    tips = np.concatenate(tips_before + [tips]) if tips_before else tips
-    return finish(params, setup, layout, model, final, tips, snaps_before + snaps, info)
+    return finish(params, setup, layout, model, final, tips, snaps, info)
 
 
 def finish(

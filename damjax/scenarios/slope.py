@@ -399,12 +399,6 @@ def simulate_slope(
         jax.config.update("jax_enable_x64", True)
     layout = make_layout(params, setup, float(np.max(slope_deg)))
     model, state0, xp, yp = build(params, setup, layout, slope_deg, tau_peak, fall_deg)
-    tips_before, snaps_before = history if history is not None else ([], [])
-
-    def _callback(c: int, st: State, tips: list[Any], snaps: list[Any]) -> None:
-        if callback is not None:
-            callback(c, st, tips_before + tips, snaps_before + snaps)
-
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -412,10 +406,10 @@ def simulate_slope(
         layout.chunk_steps,
         snapshot=_snapshot,
         progress=progress,
-        callback=_callback,
+        callback=callback,
         start_chunk=start_chunk,
+        history=history,
     )
-    snaps = snaps_before + snaps
     cell0 = np.asarray(model.cell0)
 
     def cm(v: Any, r: str = "mean") -> np.ndarray:
