@@ -109,7 +109,7 @@ def sweep(
     leaves = jax.tree.map(
         lambda a: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]) if pad else a, batch
     )
-    build = jax.vmap(lambda p: pst.build(p, setup, layout))
+    build = jax.vmap(lambda p: pst.build(p, setup, layout))  # layout.plastic: concrete batch
     models, states = jax.jit(build)(leaves)
     if n_dev > 1:
         sh = _mesh_sharding(n_dev)

@@ -64,10 +64,10 @@ def test_tensile_strength_gradient_matches_central_differences():
     steps: measured AD 3.956e-4 vs FD 3.986e-4 / 3.979e-4 / 3.964e-4 m/Pa (steps 0.1, 0.25,
     0.5 %) at 4500 Pa, f32 and f64 alike.
     """
-    layout = pst.make_layout(PARAMS, SETUP)
+    q = dataclasses.replace(PARAMS, tensile_strength=4500.0)
+    layout = pst.make_layout(q, SETUP)
     f = jax.jit(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5))
     g = jax.jit(jax.grad(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5)))
-    q = dataclasses.replace(PARAMS, tensile_strength=4500.0)
     r = damjax.simulate_pst(q, SETUP)
     assert r.fractures == []  # no slab fracture ...
     assert float(np.max(r.opening)) > 0.0  # ... but the slab has yielded
@@ -90,8 +90,18 @@ def test_gradient_is_finite_for_every_finite_field_with_an_infinite_one(smooth_f
             continue
         assert np.isfinite(float(v)), f.name
     # a finite slab strength that is never reached: zero, finite gradient
-    gs = g(dataclasses.replace(PARAMS, tensile_strength=1e5))
+    q = dataclasses.replace(PARAMS, tensile_strength=1e5)
+    layout = pst.make_layout(q, SETUP)
+    gs = jax.grad(lambda p: pst.arrest_position_smooth(p, SETUP, layout))(q)
     assert float(gs.tensile_strength) == 0.0
+
+
+def test_elastic_layout_rejects_a_traced_finite_tensile_strength(smooth_fn):
+    """The slab law is static: a layout made at sigma_t = inf skips the return map, so a
+    finite traced sigma_t on it is an error, not a silently elastic slab."""
+    _, g = smooth_fn
+    with pytest.raises(Exception, match="layout was made for an elastic slab"):
+        g(dataclasses.replace(PARAMS, tensile_strength=4500.0))
 
 
 def test_sweep_equals_a_loop_of_simulate_pst():
