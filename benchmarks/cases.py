@@ -287,8 +287,9 @@ def surrogate_table() -> None:
 
     from damjax import PSTParams, PSTSetup, sweep
 
-    # low gradients run far (theta 300 still advances at 40 m/s at 190 m after 3.5 s):
-    # those run on a 300 m strip for 6 s
+    # low gradients run far: below theory.runaway_gradient (303 Pa/m) an elastic brittle
+    # slab never arrests (theta 300 runs through a 400 m strip in 12 s), so theta 200 and
+    # 300 have no L_ca; they run on a 300 m strip for 6 s with theta 400 (112.6 m)
     for thetas, setup in (
         ([200.0, 300.0, 400.0], PSTSetup(length=300.0, duration=6.0)),
         ([500.0, 1000.0, 2000.0, 5000.0], PSTSetup()),

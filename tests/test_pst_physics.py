@@ -30,6 +30,22 @@ def test_controlled_sawing_tension_gradient_matches_appendix_a(lateral):
     assert abs(kx / kth - 1) <= 0.03, (kx, kth)
 
 
+@pytest.mark.parametrize("factor, arrests", [(0.9, False), (1.1, True)])
+def test_elastic_brittle_crack_arrests_only_above_the_runaway_gradient(factor, arrests):
+    """theta_run = (tau_g - tau_r) / lambda (303 Pa/m): below it the tip stress grows faster
+    with crack length than the strength and the crack runs through (measured at 0.9 theta_run
+    over 40 m); just above it the crack stops (1.1 theta_run: 18.0 m)."""
+    p = PSTParams(steady_length=2.0)
+    theta = factor * float(theory.runaway_gradient(p))
+    r = simulate_pst(
+        PSTParams(steady_length=2.0, strength_gradient=theta),
+        PSTSetup(length=40.0, dx=0.05, duration=2.5),
+    )
+    assert r.arrested is arrests, r.summary["final_tip_m"]
+    if not arrests:
+        assert r.summary["final_tip_m"] > 39.0
+
+
 def test_self_propagating_crack_reaches_strip_wave_speed():
     r = simulate_pst(
         PSTParams(strength_gradient=0.0),

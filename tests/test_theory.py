@@ -13,6 +13,10 @@ def test_baseline_numbers_match_physics_notes():
     assert theory.quasi_static_gradient(p) == pytest.approx(383, abs=1)
     assert theory.elastic_length(p) == pytest.approx(0.66, abs=0.01)
     assert theory.tensile_length(PSTParams(tensile_strength=6000.0)) == pytest.approx(15.7, abs=0.1)
+    # runaway gradient = k_f h / lambda (k_f h = tau_g - tau_r), lambda = sqrt(E h D / G)
+    lam = math.sqrt(4e6 * 0.5 * 0.04 / 2.0e5)  # free strip: E' = E
+    assert theory.runaway_gradient(p) == pytest.approx(383.4 * 0.5 / lam, rel=2e-3)
+    assert theory.runaway_gradient(p) == pytest.approx(303, abs=1)
     cs = theory.shear_wave_speed(p)
     assert theory.longitudinal_wave_speed(p, "constrained") / cs == pytest.approx(1.69, abs=0.01)
     assert theory.longitudinal_wave_speed(p, "free") / cs == pytest.approx(1.61, abs=0.01)
