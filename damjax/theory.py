@@ -119,6 +119,13 @@ def plastic_number(p: Any) -> Any:
     return elastic_number(p) * xp.sqrt(p.tensile_strength / gravity_shear(p))
 
 
+def bar_length(p: Any, lateral: str = "free") -> Any:
+    """lambda = sqrt(E_s h / K_wl): decay length of a slab bar on the elastic weak layer,
+    E_s the strip modulus of the lateral condition [m] (0.63 m baseline, free strip)."""
+    xp = _xp(p.youngs_modulus)
+    return xp.sqrt(strip_modulus(p, lateral) * p.thickness / wl_stiffness(p))
+
+
 def runaway_gradient(p: Any, lateral: str = "free") -> Any:
     """theta_run = (tau_g - tau_r) / lambda: below this strength gradient an elastic,
     brittle (delta = 0) slab never arrests a crack [Pa/m] (303 Pa/m baseline, free strip).
@@ -130,9 +137,7 @@ def runaway_gradient(p: Any, lateral: str = "free") -> Any:
     the crack). Measured: theta 300 runs through a 400 m strip (12 s), theta 400 arrests at
     112.6 m.
     """
-    xp = _xp(p.youngs_modulus)
-    lam = xp.sqrt(strip_modulus(p, lateral) * p.thickness / wl_stiffness(p))
-    return (gravity_shear(p) - residual_shear(p)) / lam
+    return (gravity_shear(p) - residual_shear(p)) / bar_length(p, lateral)
 
 
 def critical_cut_length(p: Any, lateral: str = "free") -> Any:
@@ -144,7 +149,5 @@ def critical_cut_length(p: Any, lateral: str = "free") -> Any:
     E_s the strip modulus; semi-infinite bar under an end load). Failure when that reaches
     tau_p:  a_c = lambda (tau_p - tau_g) / (tau_g - tau_r).
     """
-    xp = _xp(p.youngs_modulus)
-    lam = xp.sqrt(strip_modulus(p, lateral) * p.thickness / wl_stiffness(p))
     tg, tr = gravity_shear(p), residual_shear(p)
-    return lam * (p.tau_peak - tg) / (tg - tr)
+    return bar_length(p, lateral) * (p.tau_peak - tg) / (tg - tr)
