@@ -186,6 +186,10 @@ def summarize(
         "critical_cut_length_theory_m": None
         if s.controlled
         else _none(float(theory.critical_cut_length(p, s.lateral))),
+        # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
+        "runaway_gradient_pa_per_m": None
+        if s.controlled or math.isfinite(float(np.max(np.asarray(p.tensile_strength, float))))
+        else float(theory.runaway_gradient(p, s.lateral)),
         "max_crack_speed_m_per_s": max_speed,
         "max_crack_speed_over_cs": max_speed / cs,
         "wave_speed_over_cs": float(theory.longitudinal_wave_speed(p, s.lateral)) / cs,

@@ -42,6 +42,7 @@ def test_elastic_brittle_crack_arrests_only_above_the_runaway_gradient(factor, a
         PSTSetup(length=40.0, dx=0.05, duration=2.5),
     )
     assert r.arrested is arrests, r.summary["final_tip_m"]
+    assert r.summary["runaway_gradient_pa_per_m"] == pytest.approx(theta / factor)
     if not arrests:
         assert r.summary["final_tip_m"] > 39.0
 
