@@ -146,3 +146,11 @@ def test_sweep_rejects_inconsistent_batches():
         damjax.sweep(PSTParams(strength_gradient=jnp.ones(2), softening=jnp.ones(3)), SETUP)
     with pytest.raises(ValueError, match="poisson"):
         damjax.sweep(PSTParams(poisson=jnp.array([0.3, 0.7])), SETUP)
+
+
+def test_grad_without_a_layout_is_a_clear_error():
+    with pytest.raises(TypeError, match="make_layout"):
+        jax.grad(damjax.arrest_position_smooth)(PARAMS, SETUP)
+    layout = damjax.make_layout(PARAMS, SETUP)  # the documented way (README)
+    g = jax.grad(lambda p: damjax.arrest_position_smooth(p, SETUP, layout))(PARAMS)
+    assert float(g.strength_gradient) < 0.0  # a steeper strength rise stops the crack sooner

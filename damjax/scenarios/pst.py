@@ -435,13 +435,25 @@ def arrest_position_smooth(
 ) -> Any:
     """Differentiable smooth arrest position [m] of a PST (a JAX scalar).
 
-    ``jax.grad(arrest_position_smooth)(params, setup)`` gives its gradient with respect
-    to every field of `PSTParams`. Pass ``layout`` (from `make_layout` on concrete
-    parameters) when calling under `jax.jit`/`jax.vmap` with traced parameters.
+    Its gradient with respect to every field of `PSTParams`::
+
+        layout = damjax.make_layout(params, setup)   # grid and step count, concrete values
+        grads = jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)
+
+    The layout (grid, step count, elastic or plastic slab) must come from concrete
+    parameters, so pass it whenever the parameters are traced (`jax.grad`, `jax.jit`,
+    `jax.vmap`); without it traced parameters are an error that says so.
     ``width``: relative width of the damage ramp (default
     `damjax.diagnostics.SMOOTH_WIDTH`; see `damjax.diagnostics.smooth_arrest_position`).
     """
     if layout is None:
+        if any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(params)):
+            raise TypeError(
+                "arrest_position_smooth: the parameters are traced (jax.grad/jit/vmap) and no "
+                "layout was given; make it from concrete parameters first: layout = "
+                "damjax.make_layout(params, setup), then "
+                "jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)"
+            )
         validate(params, setup)
         layout = make_layout(params, setup)
     model, final, _ = run_pure(params, setup, layout)
