@@ -32,7 +32,10 @@ soften gradually and the gradient agrees with central differences of the whole r
 weak layer (delta = 0) each particle snaps from peak strength to zero: the arrest moves
 in particle-sized jumps, and the gradient only sees the tiny drift between jumps (baseline
 theta = 500, delta = 0: d L / d theta = -0.0012 m per Pa/m by AD against -0.238 by central
-differences over 2.5-5 Pa/m). Use delta > 0 for gradient-based work.
+differences over 2.5-5 Pa/m). A wider ramp does not help there (10 m PST, L_ss 4 m, theta
+800 Pa/m, dx 0.05 m: AD -6.6e-4 / -6.8e-4 / -8.7e-4 for w = 0.1 / 0.5 / 0.9 against
+-4.8e-3 to -6.0e-3 by differences): the missing part is the crack's advance itself, a
+sequence of discrete events in time. Use delta > 0 for gradient-based work.
 
 When a slab fracture stops the crack, the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no particle sits in the
