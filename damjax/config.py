@@ -17,6 +17,8 @@ import warnings
 from typing import Any
 
 import equinox as eqx
+import jax
+import numpy as np
 
 G_ACC = 9.81  # gravitational acceleration [m/s^2]
 
@@ -335,3 +337,11 @@ def validate(params: PSTParams, setup: PSTSetup) -> None:
             "concentration is under-resolved; results may depend on dx",
             stacklevel=3,
         )
+
+
+def is_plastic(params: PSTParams) -> bool | None:
+    """Whether some tensile strength is finite (an MCC slab); None for traced values."""
+    try:
+        return bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
+    except (TypeError, jax.errors.TracerArrayConversionError):
+        return None

@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
+from damjax.config import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
 SMOOTH_WIDTH = 0.1  # relative width of the damage ramp of the smooth arrest position
@@ -191,7 +192,7 @@ def summarize(
         else _none(float(theory.critical_cut_length(p, s.lateral))),
         # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
         "runaway_gradient_pa_per_m": None
-        if s.controlled or math.isfinite(float(np.max(np.asarray(p.tensile_strength, float))))
+        if s.controlled or is_plastic(p)
         else float(theory.runaway_gradient(p, s.lateral)),
         "max_crack_speed_m_per_s": max_speed,
         "max_crack_speed_over_cs": max_speed / cs,

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax.config import G_ACC, PSTParams, PSTSetup, validate
+from damjax.config import G_ACC, PSTParams, PSTSetup, is_plastic, validate
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State
 from damjax.core.step import column_height
@@ -97,14 +97,6 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
         n_y = max(1, int(round(setup.width / dx)))
         shape, periodic = (nx, n_y + 8), (False, False)
     return Layout(2, shape, periodic, pad, n_cells * ppc * n_y * ppc, n_chunks, chunk, plastic)
-
-
-def is_plastic(params: PSTParams) -> bool | None:
-    """Whether some tensile strength is finite; None for traced values (unknown)."""
-    try:
-        return bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
-    except (TypeError, jax.errors.TracerArrayConversionError):
-        return None
 
 
 def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:
