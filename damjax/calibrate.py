@@ -50,8 +50,23 @@ class PowerLawFit:
 
 def _t95(dof: int) -> float:
     """Two-sided 95 % Student-t quantile (normal beyond 30 dof)."""
-    table = {1: 12.71, 2: 4.30, 3: 3.18, 4: 2.78, 5: 2.57, 6: 2.45, 7: 2.36, 8: 2.31, 9: 2.26,
-             10: 2.23, 12: 2.18, 15: 2.13, 20: 2.09, 25: 2.06, 30: 2.04}
+    table = {
+        1: 12.71,
+        2: 4.30,
+        3: 3.18,
+        4: 2.78,
+        5: 2.57,
+        6: 2.45,
+        7: 2.36,
+        8: 2.31,
+        9: 2.26,
+        10: 2.23,
+        12: 2.18,
+        15: 2.13,
+        20: 2.09,
+        25: 2.06,
+        30: 2.04,
+    }
     if dof <= 0:
         return math.inf
     keys = [k for k in table if k <= dof]
@@ -104,8 +119,9 @@ def fit_power_law(
     r2 = 1.0 - float(jnp.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
     se_b = math.sqrt(max(cov[1, 1], 0.0))
     t = _t95(n - 2)
-    return PowerLawFit(a, b, a * math.sqrt(max(var_log_a, 0.0)), se_b,
-                       (b - t * se_b, b + t * se_b), r2, n, it)
+    return PowerLawFit(
+        a, b, a * math.sqrt(max(var_log_a, 0.0)), se_b, (b - t * se_b, b + t * se_b), r2, n, it
+    )
 
 
 def _arrested(results: Sequence[Any]) -> list[Any]:
@@ -116,8 +132,10 @@ def fit_elastic_scaling(results: Sequence[Any]) -> PowerLawFit:
     """Fit A_ca / L_ss against tau_g / (theta Lambda sqrt(1 + delta)) over arrested runs."""
     rs = _arrested(results)
     x = [float(theory.elastic_number(r.params)) for r in rs]
-    y = [(r.arrest_position - float(r.params.steady_length)) / float(r.params.steady_length)
-         for r in rs]
+    y = [
+        (r.arrest_position - float(r.params.steady_length)) / float(r.params.steady_length)
+        for r in rs
+    ]
     keep = [i for i, v in enumerate(y) if v > 0]
     return fit_power_law([x[i] for i in keep], [y[i] for i in keep])
 
@@ -127,8 +145,7 @@ def fit_plastic_scaling(results: Sequence[Any]) -> PowerLawFit:
     rs = [r for r in _arrested(results) if math.isfinite(float(r.params.tensile_strength))]
     x = [float(theory.plastic_number(r.params)) for r in rs]
     y = [
-        (r.arrest_position - float(r.params.steady_length))
-        / float(theory.tensile_length(r.params))
+        (r.arrest_position - float(r.params.steady_length)) / float(theory.tensile_length(r.params))
         for r in rs
     ]
     keep = [i for i, v in enumerate(y) if v > 0]
@@ -180,8 +197,15 @@ def invert(
     def predict(x: Any) -> Any:
         fitted = {f: jnp.exp(x[i]) for i, f in enumerate(fields)}
         return jnp.stack(
-            [pst.arrest_position_smooth(dataclasses.replace(params0, **{**o, **fitted}),
-                                        setup, layout, width=smooth_width) for o in over]
+            [
+                pst.arrest_position_smooth(
+                    dataclasses.replace(params0, **{**o, **fitted}),
+                    setup,
+                    layout,
+                    width=smooth_width,
+                )
+                for o in over
+            ]
         )
 
     def loss(x: Any) -> Any:

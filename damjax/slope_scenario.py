@@ -40,8 +40,10 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     [strength]                  # optional (default: kind = "constant", params.tau_peak)
     kind = "grf"                # "constant": tau_peak [Pa] (default params.tau_peak)
                                 #   plus trend [Pa/m] up-slope (default 0)
-                                # "grf": mean [Pa] at the lower edge (default
-                                #   params.tau_peak), trend [Pa/m] up-slope, std [Pa],
+                                # "grf": expected strength mean [Pa] (default
+                                #   params.tau_peak) up to x = mean_at [m] (default 0),
+                                #   rising trend [Pa/m] up-slope above it (as a PST's
+                                #   L_ss), std [Pa],
                                 #   length_scale [m] (number or [l1, l2]), angle_deg,
                                 #   model ("gaussian" | "exponential"), seed (integer)
                                 # "map": file (CSV x_m, y_m, tau_peak_pa; NetCDF;
@@ -106,6 +108,7 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "constant": {"tau_peak": ("float", _POS, "Pa"), "trend": ("float", _ANY, "Pa/m")},
     "grf": {
         "mean": ("float", _POS, "Pa"),
+        "mean_at": ("float", _ANY, "m"),
         "trend": ("float", _ANY, "Pa/m"),
         "std": ("float", _NONNEG, "Pa"),
         "length_scale": ("floats", _POS, "m"),
@@ -124,6 +127,7 @@ _GENERIC_DEFAULTS = {
     "roll_length": 15.0,
 }
 _GRF_DEFAULTS = {
+    "mean_at": 0.0,
     "trend": 0.0,
     "std": 100.0,
     "length_scale": 8.0,
@@ -545,26 +549,26 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
         import jax
 
         g = {**_GRF_DEFAULTS, **st}
-        mean = float(st.get("mean", params.tau_peak))
         trend = float(g["trend"])
+        mean = float(st.get("mean", params.tau_peak))
+        # expected strength: `mean` up to x = mean_at, rising `trend` per metre above
+        expected = mean + trend * np.maximum(x - float(g["mean_at"]), 0.0)
         if g["std"] == 0.0:
-            tau = np.repeat((mean + trend * x)[:, None], y.size, axis=1)
+            tau = np.repeat(expected[:, None], y.size, axis=1)
         else:
             ls = g["length_scale"]
-            tau = np.asarray(
-                fields.grf(
-                    jax.random.key(int(g["seed"])),
-                    (x.size, y.size),
-                    setup.dx,
-                    mean=mean + trend * x[0],  # grf's mean is at node 0 (the first centre)
-                    std=float(g["std"]),
-                    length_scale=np.asarray(ls, dtype=float),
-                    angle_deg=float(g["angle_deg"]),
-                    model=g["model"],
-                    trend=(trend, 0.0),
-                ),
-                dtype=float,
+            noise = fields.grf(
+                jax.random.key(int(g["seed"])),
+                (x.size, y.size),
+                setup.dx,
+                mean=0.0,
+                std=float(g["std"]),
+                length_scale=np.asarray(ls, dtype=float),
+                angle_deg=float(g["angle_deg"]),
+                model=g["model"],
+                floor=None,
             )
+            tau = np.maximum(expected[:, None] + np.asarray(noise, dtype=float), fields.TAU_FLOOR)
     else:
         try:
             mx, my, mtau = fields.load_strength_map(st["file"])
@@ -624,7 +628,12 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
     i = min(int(start[0] / setup.dx), np.shape(slope)[0] - 1)
     j = min(int(start[1] / setup.dx), np.shape(slope)[1] - 1)
     s["start_slope_deg"] = float(np.asarray(slope)[i, j])
-    for key in ("upslope_crack_speed_over_cs", "crossslope_crack_speed_over_cs"):
+    for key in (
+        "upslope_crack_speed_over_cs",
+        "crossslope_crack_speed_over_cs",
+        "upslope_crack_speed_mean_over_cs",
+        "crossslope_crack_speed_mean_over_cs",
+    ):
         if not math.isfinite(s.get(key, math.nan)):
             s[key] = None
     return res

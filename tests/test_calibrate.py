@@ -34,8 +34,15 @@ def test_inversion_recovers_a_known_strength_gradient():
 
     observed = float(pst.arrest_position_smooth(truth, setup))
     start = PSTParams(steady_length=4.0, strength_gradient=1200.0, softening=1.0)
-    inv = calibrate.invert([({}, observed)], start, setup, ["strength_gradient"],
-                           noise_std=0.05, steps=25, learning_rate=0.08)
+    inv = calibrate.invert(
+        [({}, observed)],
+        start,
+        setup,
+        ["strength_gradient"],
+        noise_std=0.05,
+        steps=25,
+        learning_rate=0.08,
+    )
     assert inv.estimates["strength_gradient"] == pytest.approx(800.0, rel=0.05)
     assert inv.history[-1] < inv.history[0]
     assert np.isfinite(inv.condition_number)

@@ -36,8 +36,8 @@ def test_smooth_arrest_position_tracks_the_event_based_tip(smooth_fn):
 
 
 @pytest.mark.parametrize(
-    "name", ["strength_gradient", "softening", "youngs_modulus", "wl_shear_modulus",
-             "steady_length"]
+    "name",
+    ["strength_gradient", "softening", "youngs_modulus", "wl_shear_modulus", "steady_length"],
 )
 def test_gradient_matches_central_differences_at_two_steps(smooth_fn, name):
     f, g = smooth_fn
@@ -46,8 +46,10 @@ def test_gradient_matches_central_differences_at_two_steps(smooth_fn, name):
     assert ad != 0.0
     for rel in (2.5e-3, 5e-3):
         h = rel * abs(x0)
-        fd = (float(f(dataclasses.replace(PARAMS, **{name: x0 + h})))
-              - float(f(dataclasses.replace(PARAMS, **{name: x0 - h})))) / (2 * h)
+        fd = (
+            float(f(dataclasses.replace(PARAMS, **{name: x0 + h})))
+            - float(f(dataclasses.replace(PARAMS, **{name: x0 - h})))
+        ) / (2 * h)
         assert abs(fd / ad - 1) <= 0.05, (name, rel, ad, fd)
 
 
@@ -75,8 +77,10 @@ def test_tensile_strength_gradient_matches_central_differences():
     assert ad > 0.0  # a stronger slab carries more tension: the crack runs further
     for rel in (2.5e-3, 5e-3):
         h = rel * 4500.0
-        fd = (float(f(dataclasses.replace(q, tensile_strength=4500.0 + h)))
-              - float(f(dataclasses.replace(q, tensile_strength=4500.0 - h)))) / (2 * h)
+        fd = (
+            float(f(dataclasses.replace(q, tensile_strength=4500.0 + h)))
+            - float(f(dataclasses.replace(q, tensile_strength=4500.0 - h)))
+        ) / (2 * h)
         assert abs(fd / ad - 1) <= 0.05, (rel, ad, fd)
 
 
@@ -105,18 +109,21 @@ def test_elastic_layout_rejects_a_traced_finite_tensile_strength(smooth_fn):
 
 
 def test_sweep_equals_a_loop_of_simulate_pst():
-    batch = PSTParams(steady_length=4.0, strength_gradient=jnp.array([1000.0, 3000.0]),
-                      softening=jnp.array([0.0, 2.0]))
+    batch = PSTParams(
+        steady_length=4.0,
+        strength_gradient=jnp.array([1000.0, 3000.0]),
+        softening=jnp.array([0.0, 2.0]),
+    )
     results = damjax.sweep(batch, SETUP)
     sliced = damjax.sweep(batch, SETUP, batch_size=1)
     for i, (theta, delta) in enumerate([(1000.0, 0.0), (3000.0, 2.0)]):
-        ref = damjax.simulate_pst(PSTParams(steady_length=4.0, strength_gradient=theta,
-                                            softening=delta), SETUP)
+        ref = damjax.simulate_pst(
+            PSTParams(steady_length=4.0, strength_gradient=theta, softening=delta), SETUP
+        )
         for r in (results[i], sliced[i]):
             assert r.summary["final_tip_m"] == ref.summary["final_tip_m"]
             np.testing.assert_allclose(r.sigma_xx, ref.sigma_xx, rtol=1e-4, atol=0.05)
-            assert r.arrest_position_smooth == pytest.approx(ref.arrest_position_smooth,
-                                                             abs=1e-4)
+            assert r.arrest_position_smooth == pytest.approx(ref.arrest_position_smooth, abs=1e-4)
 
 
 def test_sweep_sharded_over_four_host_devices_equals_unsharded():
@@ -133,8 +140,7 @@ def test_sweep_sharded_over_four_host_devices_equals_unsharded():
         print(json.dumps([[r.summary["final_tip_m"], float(r.sigma_xx.max())] for r in a]
                          + [[r.summary["final_tip_m"], float(r.sigma_xx.max())] for r in u]))
     """)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=600)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     rows = json.loads(out.stdout.strip().splitlines()[-1])
     sharded, unsharded = rows[:3], rows[3:]

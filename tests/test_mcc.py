@@ -17,8 +17,12 @@ M, BETA, E, NU = 0.3, 1.2, 4e6, 0.3
 
 @pytest.mark.parametrize(
     "rule,inv,expected",
-    [("uniaxial", "3d", 6000.0), ("paper", "3d", 3206.1), ("uniaxial", "plane", 6000.0),
-     ("paper", "plane", 3704.6)],
+    [
+        ("uniaxial", "3d", 6000.0),
+        ("paper", "3d", 3206.1),
+        ("uniaxial", "plane", 6000.0),
+        ("paper", "plane", 3704.6),
+    ],
 )
 def test_uniaxial_tension_yields_where_the_p0_rule_puts_it(rule, inv, expected):
     p0 = mcc.p0_from_tensile_strength(6000.0, M, BETA, rule, inv)
@@ -30,9 +34,7 @@ def test_uniaxial_tension_yields_where_the_p0_rule_puts_it(rule, inv, expected):
         p, q = mcc.invariants(jnp.asarray([sig, 0.0, 0.0]), inv)
         assert abs(float(mcc.yield_function(p, q, p0, M, BETA))) < 1e-5 * float(p0) ** 2
     # a uniaxial return mapping caps the stress there
-    sig, dxx, dyy = mcc.return_map_uniaxial(
-        jnp.asarray([2e4, -2e4, 100.0]), p0, M, BETA, E, inv
-    )
+    sig, dxx, dyy = mcc.return_map_uniaxial(jnp.asarray([2e4, -2e4, 100.0]), p0, M, BETA, E, inv)
     np.testing.assert_allclose(np.asarray(sig), [float(st_), -float(sc_), 100.0], rtol=1e-5)
     assert float(dxx[2]) == 0.0 and float(dyy[2]) == 0.0
     # associative flow at uniaxial tension: in-plane isochoric for the plane invariants,
@@ -90,8 +92,9 @@ def test_states_inside_are_untouched_and_returned_states_lie_on_the_surface(inv)
     y = np.asarray(mcc.yield_function(p, q, p0, M, BETA))
     assert np.max(np.abs(y)) < 1e-6 * p0**2
     # stress = elastic law of the remaining elastic strain
-    np.testing.assert_allclose(_plane_stress(eps - dep)[:, ~inside], sigma[:, ~inside],
-                               rtol=1e-5, atol=1e-5 * p0)
+    np.testing.assert_allclose(
+        _plane_stress(eps - dep)[:, ~inside], sigma[:, ~inside], rtol=1e-5, atol=1e-5 * p0
+    )
 
 
 def test_infinite_tensile_strength_is_exactly_elastic():
@@ -120,8 +123,7 @@ def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
     f_el, tips_el = run(m_el, st0)
     f_pl, tips_pl = run(m_pl, st0)
     np.testing.assert_array_equal(np.asarray(tips_el), np.asarray(tips_pl))
-    np.testing.assert_allclose(np.asarray(f_el.sigma), np.asarray(f_pl.sigma), rtol=1e-5,
-                               atol=1e-3)
+    np.testing.assert_allclose(np.asarray(f_el.sigma), np.asarray(f_pl.sigma), rtol=1e-5, atol=1e-3)
 
 
 finite = st.floats(-0.5, 0.5, allow_nan=False)
@@ -141,8 +143,12 @@ def _nan_probe(rule: str, inv: str):
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(finite, min_size=3, max_size=3), st.sampled_from([2000.0, 6000.0, np.inf]),
-       st.sampled_from(["paper", "uniaxial"]), st.sampled_from(["3d", "plane"]))
+@given(
+    st.lists(finite, min_size=3, max_size=3),
+    st.sampled_from([2000.0, 6000.0, np.inf]),
+    st.sampled_from(["paper", "uniaxial"]),
+    st.sampled_from(["3d", "plane"]),
+)
 def test_return_mapping_never_produces_nan(e, sigma_t, rule, inv):
     eps = jnp.asarray(e, jnp.float32)[:, None] * jnp.asarray([1.0, 0.3, 1e-3])[None, :]
     val, (g_st, g_eps) = _nan_probe(rule, inv)(jnp.float32(sigma_t), eps)

@@ -116,8 +116,7 @@ def test_transfers_conserve_mass_in_1d_and_2d():
         nodes = np.indices(shape).reshape(dim, -1).astype(np.float32)
         lin = jnp.asarray(nodes[0] * 0.1 + 2.0)
         xp = (np.asarray(cell0[0]) + np.asarray(frac0[0])) * 0.1 + np.asarray(u[0])
-        np.testing.assert_allclose(np.asarray(transfer.interpolate(st, lin)), xp + 2.0,
-                                   rtol=1e-5)
+        np.testing.assert_allclose(np.asarray(transfer.interpolate(st, lin)), xp + 2.0, rtol=1e-5)
 
 
 def test_column_volume_h_times_area_is_conserved(small_setup, arresting_params):

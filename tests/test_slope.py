@@ -19,6 +19,7 @@ import pytest
 from damjax import PSTParams, PSTSetup, scenario, slope_scenario, terrain
 from damjax.cli import main
 from damjax.materials import weak_layer
+from damjax.scenarios.generic_slope import GenericSlopeCase, strength_field, weak_spot
 from damjax.scenarios.pst import simulate_pst
 from damjax.scenarios.slope import SlopeSetup, simulate_slope
 
@@ -97,17 +98,26 @@ def test_acceptance_scenario_is_the_issue_5_case():
     scn = scenario.load("slope-generic-50x60", warn=False)
     p, s = scn.params, scn.setup
     assert (p.youngs_modulus, p.tensile_strength, p.softening) == (4.0e6, 4000.0, 1.0)
-    assert (s.length, s.width, s.dx, s.duration) == (50.0, 60.0, 0.2, 2.0)
+    # 50 m across, 60 m along the surface (see damjax.scenarios.generic_slope)
+    assert (s.length, s.width, s.dx, s.duration) == (60.0, 50.0, 0.2, 3.0)
     assert scn.terrain["kind"] == "generic"
     assert scn.strength["kind"] == "grf" and scn.strength["trend"] == 20.0
     slope, fall, tau, start = slope_scenario.resolve_fields(scn)
-    assert slope.shape == tau.shape == (250, 300) and fall == 0.0
+    assert slope.shape == tau.shape == (300, 250) and fall == 0.0
     assert slope.max() == pytest.approx(35.0, abs=1e-3) and slope[0, 0] < 11.0
-    # the field rises 20 Pa/m up-slope on average
-    trend = np.polyfit(np.arange(250) * 0.2, tau.mean(axis=1), 1)[0]
+    # 1 kPa up to x = 12 m (where the crack starts, as a PST's L_ss), then +20 Pa/m
+    x = (np.arange(300) + 0.5) * 0.2
+    above = x > 14.0
+    trend = np.polyfit(x[above], tau.mean(axis=1)[above], 1)[0]
     assert trend == pytest.approx(20.0, abs=5.0)
-    assert 12.0 <= start[0] <= 18.0 and 15.0 <= start[1] <= 45.0
-    assert scenario.load("slope-generic-50x100", warn=False).setup.width == 100.0
+    assert tau[x < 12.0].mean() == pytest.approx(1000.0, abs=60.0)
+    assert 12.0 <= start[0] <= 18.0 and 12.5 <= start[1] <= 37.5
+    # the TOML and the Python case describe the same field and start
+    case = GenericSlopeCase()
+    assert np.allclose(strength_field(case), tau, atol=1e-3)
+    assert weak_spot(case, tau) == pytest.approx(start)
+    long = scenario.load("slope-generic-50x100", warn=False).setup
+    assert (long.length, long.width) == (100.0, 50.0)
 
 
 def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
@@ -432,3 +442,35 @@ def test_random_invalid_slope_mutations_give_clean_errors(tmp_path, capsys):
             err = capsys.readouterr().err
             assert "Traceback" not in err and len(err.strip().splitlines()) == len(lines)
     assert not (tmp_path / "o").exists()
+
+
+def test_front_speed_peak_and_mean():
+    """Peak = the fastest 4 m stretch of the front; mean = the fit over the whole range."""
+    from damjax.scenarios.slope import _front_speed
+
+    # front at 40 m/s up to 10 m, 120 m/s from 10 to 22 m, 20 m/s beyond (arrest)
+    c = np.arange(0.05, 30.0, 0.1)
+    t = np.where(c < 10, c / 40, 0.25 + (c - 10) / 120)
+    t = np.where(c > 22, 0.35 + (c - 22) / 20, t)
+    mean, peak = _front_speed(c, t, 0.0, 30.0)
+    assert peak == pytest.approx(120.0, rel=0.02)
+    assert 20.0 < mean < 80.0
+    # late failures behind the front do not count: only the earliest per 0.5 m bin
+    mean2, peak2 = _front_speed(np.r_[c, c[::7]], np.r_[t, t[::7] + 1.0], 0.0, 30.0)
+    assert (mean2, peak2) == pytest.approx((mean, peak))
+    assert all(math.isnan(v) for v in _front_speed(c[:3], t[:3], 0.0, 30.0))
+
+
+def test_grf_strength_plateau_below_mean_at():
+    """strength.mean_at: the expected strength is `mean` below it and rises `trend` above."""
+    doc = raw("slope-generic-50x60")
+    doc["setup"].update(length=30.0, width=10.0, dx=0.25, start=[5.0, 5.0])
+    doc["strength"].update(std=0.0, mean_at=8.0, trend=50.0)
+    del doc["strength"]["start_window"]
+    scn = quiet_parse(doc)
+    _, _, tau, _ = slope_scenario.resolve_fields(scn)
+    x = (np.arange(120) + 0.5) * 0.25
+    assert tau[:, 0] == pytest.approx(1000.0 + 50.0 * np.maximum(x - 8.0, 0.0))
+    doc["strength"]["mean_at"] = "low"
+    with pytest.raises(ValueError, match="strength.mean_at"):
+        quiet_parse(doc)

@@ -161,10 +161,12 @@ def step(model: Model, state: State) -> State:
     for a in range(dim):
         wv = [st.w[k] * vs[a][k] for k in range(S)]
         v_rows.append(sum(wv[1:], wv[0]))
-        C_rows.append([
-            inv_d * sum((wv[k] * st.dpos[k][b] for k in range(1, S)), wv[0] * st.dpos[0][b])
-            for b in range(dim)
-        ])
+        C_rows.append(
+            [
+                inv_d * sum((wv[k] * st.dpos[k][b] for k in range(1, S)), wv[0] * st.dpos[0][b])
+                for b in range(dim)
+            ]
+        )
     v_new = jnp.stack(v_rows)
     C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new

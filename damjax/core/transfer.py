@@ -67,8 +67,10 @@ def stencil(
     fl = jnp.floor(s - 0.5)
     fx = s - fl  # in [0.5, 1.5): distance from the base node [cells]
     base = cell0 + fl.astype(jnp.int32)
-    w1 = [(0.5 * (1.5 - fx[d]) ** 2, 0.75 - (fx[d] - 1.0) ** 2, 0.5 * (fx[d] - 0.5) ** 2)
-          for d in range(dim)]
+    w1 = [
+        (0.5 * (1.5 - fx[d]) ** 2, 0.75 - (fx[d] - 1.0) ** 2, 0.5 * (fx[d] - 0.5) ** 2)
+        for d in range(dim)
+    ]
     d1 = [tuple((o - fx[d]) * dx for o in range(3)) for d in range(dim)]
     st = strides(grid_shape)
     periodic = periodic or (False,) * dim
@@ -79,8 +81,7 @@ def stencil(
             wk = wk * w1[d][o[d]]
         w.append(wk)
         node = [
-            (base[d] + o[d]) % grid_shape[d] if periodic[d] else base[d] + o[d]
-            for d in range(dim)
+            (base[d] + o[d]) % grid_shape[d] if periodic[d] else base[d] + o[d] for d in range(dim)
         ]
         idx.append(sum(node[d] * st[d] for d in range(dim)))
         dpos.append(tuple(d1[d][o[d]] for d in range(dim)))

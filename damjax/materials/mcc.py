@@ -105,9 +105,7 @@ def invariants(sigma: Any, kind: str = "3d") -> tuple[Any, Any]:
     return p, q
 
 
-def uniaxial_strengths(
-    p0: Any, M: Any, beta: Any, invariants: str = "3d"
-) -> tuple[Any, Any]:
+def uniaxial_strengths(p0: Any, M: Any, beta: Any, invariants: str = "3d") -> tuple[Any, Any]:
     """(tensile, compressive) uniaxial yield stresses [Pa], both positive, for p0."""
     alpha, gamma, p_c, R = _ellipse(p0, M, beta, invariants)
     # (p2, q2) = (-sigma/2, sqrt(3)/2 |sigma|) on the ellipse: a sigma^2 + b sigma + c = 0
@@ -190,9 +188,7 @@ def return_map_plane(
     B = gamma * (p_tr - p_c) ** 2
     C = R
     # each one-term root is a lower bound of the root
-    dl = jnp.maximum(
-        jnp.maximum((_sqrt(A / C) - 1.0) / a, (_sqrt(B / C) - 1.0) / (2.0 * b)), 0.0
-    )
+    dl = jnp.maximum(jnp.maximum((_sqrt(A / C) - 1.0) / a, (_sqrt(B / C) - 1.0) / (2.0 * b)), 0.0)
     for _ in range(_NEWTON_ITERS):
         uq = 1.0 / (1.0 + a * dl)
         up = 1.0 / (1.0 + 2.0 * b * dl)
@@ -207,8 +203,11 @@ def return_map_plane(
     sigma_pl = jnp.stack([s[0] - p, s[1] - p, s[2]])
     c = youngs_modulus / (1.0 - poisson**2)
     sigma_el = jnp.stack(
-        [c * (eps_e[0] + poisson * eps_e[1]), c * (eps_e[1] + poisson * eps_e[0]),
-         c * (1.0 - poisson) * eps_e[2]]
+        [
+            c * (eps_e[0] + poisson * eps_e[1]),
+            c * (eps_e[1] + poisson * eps_e[0]),
+            c * (1.0 - poisson) * eps_e[2],
+        ]
     )
     sigma = jnp.where(plastic, sigma_pl, sigma_el)
     # plastic strain = trial elastic strain - elastic strain of the returned stress
