@@ -164,6 +164,7 @@ def main(argv: list[str]) -> int:
                 rel_error=est / TRUE_SIGMA_T - 1,
                 loss=fit.loss,
                 iterations=len(fit.history),
+                best_iteration=fit.best_iteration,
                 history=fit.history,
                 n_particles=int(c["problem"].xp.size),
                 n_steps=c["problem"].layout.n_steps,

@@ -215,11 +215,13 @@ class SlopeCalibration:
     """Result of `calibrate_slope`.
 
     Attributes:
-        estimates: fitted values (sigma_t [Pa], delta [-]).
-        loss: misfit at the last evaluated iterate (the estimates are one Adam step on) [-].
+        estimates: fitted values (sigma_t [Pa], delta [-]): the evaluated iterate with the
+            lowest loss (Adam's momentum can carry the last iterates past the minimum).
+        loss: misfit at the estimates [-].
         history: per iteration, the loss and the parameter values.
-        gradient: d loss / d log(parameter) at the last iterate.
+        gradient: d loss / d log(parameter) at the estimates.
         wall_time_s: wall time of the whole calibration, compilation included [s].
+        best_iteration: index in `history` of the estimates.
     """
 
     estimates: dict[str, float]
@@ -227,6 +229,7 @@ class SlopeCalibration:
     history: list[dict[str, float]]
     gradient: dict[str, float]
     wall_time_s: float
+    best_iteration: int = 0
 
 
 def loss_and_grad(
@@ -274,8 +277,9 @@ def calibrate_slope(
 
     Adam (optax) over the logarithms (positivity, relative steps), learning rate
     `learning_rate` decaying as 1 / sqrt(1 + k / 5); stops after `steps` iterations or
-    when the relative change of every parameter falls below `tol`. The fields not fitted
-    keep their `initial` value or the problem's parameters.
+    when the relative change of every parameter falls below `tol`, and returns the
+    evaluated iterate with the lowest loss. The fields not fitted keep their `initial`
+    value or the problem's parameters.
     """
     import time
 
@@ -296,26 +300,29 @@ def calibrate_slope(
     st = opt.init(x)
     hist: list[dict[str, float]] = []
     t0 = time.perf_counter()
-    g = x
-    val = jnp.asarray(math.nan)
+    best: tuple[float, Any, Any, int] = (math.inf, x, jnp.full_like(x, jnp.nan), 0)
     for k in range(steps):
         val, g = vg(x, fixed)
         row = {"loss": float(val), **{f: math.exp(float(x[i])) for i, f in enumerate(fields)}}
         hist.append(row)
         if progress:
             print(f"[calibrate_slope] {k}: {row}", flush=True)
+        if float(val) < best[0]:
+            best = (float(val), x, g, k)
         upd, st = opt.update(g, st)
         x_new = optax.apply_updates(x, upd)
         done = bool(jnp.all(jnp.abs(x_new - x) < tol))
         x = x_new
         if done:
             break
+    loss_best, x_best, g_best, k_best = best
     est = dict(start)
-    est.update({f: math.exp(float(x[i])) for i, f in enumerate(fields)})
+    est.update({f: math.exp(float(x_best[i])) for i, f in enumerate(fields)})
     return SlopeCalibration(
         estimates={f: est[f] for f in CALIBRATED},
-        loss=float(val),
+        loss=loss_best if math.isfinite(loss_best) else math.nan,
         history=hist,
-        gradient={f: float(g[i]) for i, f in enumerate(fields)},
+        gradient={f: float(g_best[i]) for i, f in enumerate(fields)},
+        best_iteration=k_best,
         wall_time_s=time.perf_counter() - t0,
     )

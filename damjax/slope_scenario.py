@@ -628,14 +628,6 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
     i = min(int(start[0] / setup.dx), np.shape(slope)[0] - 1)
     j = min(int(start[1] / setup.dx), np.shape(slope)[1] - 1)
     s["start_slope_deg"] = float(np.asarray(slope)[i, j])
-    for key in (
-        "upslope_crack_speed_over_cs",
-        "crossslope_crack_speed_over_cs",
-        "upslope_crack_speed_mean_over_cs",
-        "crossslope_crack_speed_mean_over_cs",
-    ):
-        if not math.isfinite(s.get(key, math.nan)):
-            s[key] = None
     return res
 
 

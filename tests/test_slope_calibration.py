@@ -47,3 +47,20 @@ def test_release_loss_gradient_is_finite_and_points_to_the_truth(problem):
         assert np.isfinite(float(val)) and np.isfinite(float(g[0]))
         assert float(val) > 0.0
         assert sign * float(g[0]) > 0.0, (sigma_t, float(g[0]))
+
+
+def test_calibrate_slope_returns_its_best_evaluated_iterate(problem):
+    """The estimates are the lowest-loss iterate of the history, with that loss."""
+    grid = sc.observation_grid(problem.setup, 1.0)
+    observed = (np.asarray(sc.damage_map(problem, 4000.0, 1.0, grid)) > 0.5).astype(float)
+    fit = sc.calibrate_slope(
+        problem, observed, grid, initial={"tensile_strength": 2500.0}, steps=4, learning_rate=0.2
+    )
+    losses = [h["loss"] for h in fit.history]
+    k = int(np.argmin(losses))
+    assert fit.best_iteration == k and fit.loss == pytest.approx(losses[k])
+    assert fit.estimates["tensile_strength"] == pytest.approx(
+        fit.history[k]["tensile_strength"], rel=1e-6
+    )
+    assert fit.loss <= losses[0] and fit.estimates["softening"] == 1.0
+    assert np.isfinite(fit.gradient["tensile_strength"])

@@ -213,12 +213,4 @@ def run_generic_slope(
     s["case"] = {
         k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(case).items()
     }
-    for key in (
-        "upslope_crack_speed_over_cs",
-        "crossslope_crack_speed_over_cs",
-        "upslope_crack_speed_mean_over_cs",
-        "crossslope_crack_speed_mean_over_cs",
-    ):
-        if not math.isfinite(s.get(key, math.nan)):
-            s[key] = None
     return res

@@ -379,6 +379,10 @@ def _front_speed(
     return mean, peak
 
 
+def _ratio_or_none(v: float, cs: float) -> float | None:
+    return v / cs if math.isfinite(v) else None
+
+
 def simulate_slope(
     params: PSTParams,
     setup: SlopeSetup | None = None,
@@ -463,10 +467,11 @@ def simulate_slope(
         "upslope_arrest_distance_m": float(up),
         "arrested_before_top": bool(x_top < setup.length - 2.0),
         "crossslope_extent_m": float(across),
-        "upslope_crack_speed_over_cs": v_up_peak / cs,
-        "crossslope_crack_speed_over_cs": v_cross_peak / cs,
-        "upslope_crack_speed_mean_over_cs": v_up / cs,
-        "crossslope_crack_speed_mean_over_cs": v_cross / cs,
+        # None where a band had too few failures to fit (JSON has no NaN)
+        "upslope_crack_speed_over_cs": _ratio_or_none(v_up_peak, cs),
+        "crossslope_crack_speed_over_cs": _ratio_or_none(v_cross_peak, cs),
+        "upslope_crack_speed_mean_over_cs": _ratio_or_none(v_up, cs),
+        "crossslope_crack_speed_mean_over_cs": _ratio_or_none(v_cross, cs),
         "release_area_m2": float(broken.sum() * float(model.area0)),
         "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
         "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
