@@ -44,6 +44,12 @@ up-slope speeds 1.08-1.30 c_s in every seed. The whole-run means (cross 0.70-0.8
 0.79-1.03 c_s) mix in the acceleration and the arrest; by them seed 0 runs faster across
 (0.86) than up-slope (0.79), where it decelerates over the roll.
 
+Grid: seed 0 on dx 0.1 m (`GenericSlopeCase(dx=0.1, duration=3.0, particles_per_cell=1)`,
+300 000 particles, 8300 steps, 361 s; the GRF is drawn on the simulation grid, so this is
+a different sample of the field, started at (12.05, 37.45) m): 41.4 m from the start
+(position 53.45 m), peak speeds 1.26 c_s up-slope and 0.90 c_s across, release 2438 m^2:
+the same picture, the arrest where the roll brings psi to about 30 deg.
+
 For comparison, a 1D PST with the same slab and weak layer (sigma_t 4 kPa, delta 1,
 E 4 MPa, tau_p 1 kPa then +20 Pa/m from the start, `damjax pst --strength-gradient 20
 --tensile-strength 4000 --softening 1 --steady-length 0 --dx 0.1 --duration 4`) arrests

@@ -37,9 +37,10 @@ same calibration against a reference of the *same* grid spacing (`--fine-dx 0.12
 particles per cell, i.e. a different discretisation but not a finer grid) lands within
 10 %: 2500 -> 3838 Pa (loss 0.0103, iteration 5), -4.1 % (706 s); from 6000 Pa -> 3733 Pa
 (loss 0.0115, iteration 6), -6.7 % (652 s) (the lowest-loss iterates of those two runs,
-made before `calibrate_slope` returned them; its last iterates were 3899 and 3373 Pa). On dx 0.25 m against the 0.125 m reference
-(earlier stop, busy machine): 3127 Pa, -22 %; a forward scan on that grid put the loss
-minimum at 3250 Pa, where the coarse run releases the reference's 74.9 m^2.
+made before `calibrate_slope` returned them; its last iterates were 3899 and 3373 Pa).
+On dx 0.25 m against the 0.125 m reference (earlier stop, busy machine): 3127 Pa, -22 %; a
+forward scan on that grid put the loss minimum at 3250 Pa, where the coarse run releases
+the reference's 74.9 m^2.
 """
 
 from __future__ import annotations
