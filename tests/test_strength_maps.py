@@ -48,3 +48,24 @@ def test_shipped_synthetic_map_transect_gradient():
     fit = fields.fit_linear_profile(s, t)
     # one sample of a 100 Pa, 8 m field: the fitted gradient is the 20 Pa/m trend +- noise
     assert 10.0 < fit.theta < 30.0
+
+
+def test_geotiff_strength_map_round_trip(tmp_path):
+    """A north-up GeoTIFF strength map loads as (x, y, tau) with tau[i, j] at (x_i, y_j)."""
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio.transform import Affine
+
+    x = np.arange(20) + 0.5
+    y = np.arange(10) + 0.5
+    tau = 1000.0 + 20.0 * x[:, None] - 3.0 * y[None, :]
+    path = tmp_path / "tau.tif"
+    profile = dict(
+        driver="GTiff", width=x.size, height=y.size, count=1, dtype="float64",
+        transform=Affine(1.0, 0.0, 0.0, 0.0, -1.0, 10.0), crs="EPSG:32632",
+    )  # fmt: skip
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(tau.T[::-1, :], 1)  # rows run south
+    mx, my, mtau = fields.load_strength_map(path)
+    np.testing.assert_allclose(mx, x)
+    np.testing.assert_allclose(my, y)
+    np.testing.assert_allclose(mtau, tau)
