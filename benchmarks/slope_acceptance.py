@@ -18,7 +18,7 @@ one compiled step (same shapes), so only the first pays the compilation.
 
 Measured (this commit; 50 m across x 60 m along the surface, strength 1 kPa up to x = 12 m
 then +20 Pa/m, dx 0.2 m, 1 particle per cell, 75 000 particles, 4200 steps = 3 s,
-float32, quiet 2-core Intel Xeon; areas in m^2; rows in `slope_acceptance_results.jsonl`):
+float32, quiet 2-core AMD EPYC; areas in m^2; rows in `slope_acceptance_results.jsonl`):
 
 | run | from start | position | start x | up/c_s (mean) | cross/c_s (mean) | area | crown | wall s |
 |---|---|---|---|---|---|---|---|---|

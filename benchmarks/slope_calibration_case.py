@@ -20,7 +20,7 @@ The synthetic field case (small, so it runs in minutes on 2 cores):
 Prints JSON lines: the reference run, each iteration, and the result with the relative
 error of sigma_t.
 
-Measured (quiet 2-core Intel Xeon, 2026-11-23), defaults: reference dx 0.0625 m (245 760
+Measured (quiet 2-core AMD EPYC, 2026-11-23), defaults: reference dx 0.0625 m (245 760
 particles, 6500 steps, 241 s) releases 65.9 m^2, arrest 6.17 m up-slope of the start;
 calibration 15 360 particles, 3250 steps, 58 s per gradient, 12 Adam steps in 693 s:
 sigma_t 2500 -> 3289 (loss 0.0124) -> 3461 -> 3217 (loss 0.0103, the estimate) -> 3046:
