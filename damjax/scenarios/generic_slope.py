@@ -74,7 +74,7 @@ class GenericSlopeCase:
     length: float = 60.0
     width: float = 50.0
     dx: float = 0.2
-    duration: float = 2.0
+    duration: float = 3.0  # sawing ~0.5-1 s, the up-slope run ~0.5 s, then quiet by ~2.5 s
     seed: int = 0
     mean: float = 1000.0
     mean_at: float | None = None
