@@ -235,6 +235,43 @@ def grf(
     )
 
 
+def plateau_trend_field(
+    key: Array,
+    x: np.ndarray,
+    ny: int,
+    dx: float,
+    *,
+    mean: float,
+    mean_at: float,
+    trend: float,
+    std: float,
+    length_scale: ArrayLike,
+    angle_deg: float = 0.0,
+    model: CovarianceModel = "gaussian",
+) -> np.ndarray:
+    """A slope's weak-layer strength on cell centres x (nx,) by ny columns [Pa] (numpy).
+
+    Expected strength `mean` up to x = `mean_at`, rising `trend` [Pa/m] above it (a PST's
+    L_ss and gradient), plus `std` times a stationary `grf` sample (no trend), clipped from
+    below at `TAU_FLOOR`. ``std = 0``: the expected strength alone.
+    """
+    expected = mean + trend * np.maximum(np.asarray(x, dtype=float) - mean_at, 0.0)
+    if std == 0.0:
+        return np.repeat(expected[:, None], ny, axis=1)
+    noise = grf(
+        key,
+        (len(x), ny),
+        dx,
+        mean=0.0,
+        std=std,
+        length_scale=np.asarray(length_scale, dtype=float),
+        angle_deg=angle_deg,
+        model=model,
+        floor=None,
+    )
+    return np.maximum(expected[:, None] + np.asarray(noise, dtype=float), TAU_FLOOR)
+
+
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))
 def _grf(
     key: Array,

@@ -549,26 +549,19 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
         import jax
 
         g = {**_GRF_DEFAULTS, **st}
-        trend = float(g["trend"])
-        mean = float(st.get("mean", params.tau_peak))
-        # expected strength: `mean` up to x = mean_at, rising `trend` per metre above
-        expected = mean + trend * np.maximum(x - float(g["mean_at"]), 0.0)
-        if g["std"] == 0.0:
-            tau = np.repeat(expected[:, None], y.size, axis=1)
-        else:
-            ls = g["length_scale"]
-            noise = fields.grf(
-                jax.random.key(int(g["seed"])),
-                (x.size, y.size),
-                setup.dx,
-                mean=0.0,
-                std=float(g["std"]),
-                length_scale=np.asarray(ls, dtype=float),
-                angle_deg=float(g["angle_deg"]),
-                model=g["model"],
-                floor=None,
-            )
-            tau = np.maximum(expected[:, None] + np.asarray(noise, dtype=float), fields.TAU_FLOOR)
+        tau = fields.plateau_trend_field(
+            jax.random.key(int(g["seed"])),
+            x,
+            y.size,
+            setup.dx,
+            mean=float(st.get("mean", params.tau_peak)),
+            mean_at=float(g["mean_at"]),
+            trend=float(g["trend"]),
+            std=float(g["std"]),
+            length_scale=g["length_scale"],
+            angle_deg=float(g["angle_deg"]),
+            model=g["model"],
+        )
     else:
         try:
             mx, my, mtau = fields.load_strength_map(st["file"])

@@ -125,23 +125,17 @@ def strength_field(case: GenericSlopeCase) -> np.ndarray:
     from damjax import fields
 
     x, y = cell_centres(case)
-    ref = case.start_window[0] if case.mean_at is None else case.mean_at
-    # expected strength: `mean` below `ref`, rising `trend` per metre above (a PST's L_ss)
-    expected = case.mean + case.trend * np.maximum(x - ref, 0.0)
-    if case.grf_std == 0.0:
-        return np.repeat(expected[:, None], y.size, axis=1)
-    noise = fields.grf(
+    return fields.plateau_trend_field(
         jax.random.key(case.seed),
-        (x.size, y.size),
+        x,
+        y.size,
         case.dx,
-        mean=0.0,
+        mean=case.mean,
+        mean_at=case.start_window[0] if case.mean_at is None else case.mean_at,
+        trend=case.trend,
         std=case.grf_std,
         length_scale=case.grf_length,
-        model="gaussian",
-        floor=None,
     )
-    tau = np.maximum(expected[:, None] + np.asarray(noise, dtype=float), fields.TAU_FLOOR)
-    return np.asarray(tau, dtype=float)
 
 
 def weak_spot(case: GenericSlopeCase, tau: np.ndarray) -> tuple[float, float]:

@@ -367,16 +367,15 @@ def _front_speed(
     cb = np.array(keys) * 0.5 + 0.25
     tt = np.array([tb[k] for k in keys])
     mean = float(1.0 / np.polyfit(cb, tt, 1)[0])
-    peak = math.nan
     n_win = int(round(window / 0.5))
+    speeds = []
     for i in range(cb.size):
         j = np.searchsorted(cb, cb[i] + window - 1e-9)
-        if j - i < max(3, n_win - 1) or np.ptp(tt[i:j]) <= 0:
-            continue
-        slope = np.polyfit(cb[i:j], tt[i:j], 1)[0]
-        if slope > 0:
-            peak = max(peak, float(1.0 / slope)) if math.isfinite(peak) else float(1.0 / slope)
-    return mean, peak
+        if j - i >= max(3, n_win - 1) and np.ptp(tt[i:j]) > 0:
+            slope = np.polyfit(cb[i:j], tt[i:j], 1)[0]
+            if slope > 0:
+                speeds.append(float(1.0 / slope))
+    return mean, max(speeds, default=math.nan)
 
 
 def _ratio_or_none(v: float, cs: float) -> float | None:
