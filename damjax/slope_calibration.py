@@ -21,8 +21,8 @@ symmetric difference between the two release zones for sharp maps, per cell.
 observed value of the observation cell it sits in), which keeps the sub-cell position of
 the simulated front in the loss. Gradients
 come from reverse mode through the whole run (`damjax.core.loop.integrate_pure`, one
-state stored per chunk). The run is the host-loop solver's step (`damjax.core.step.step`)
-and initial state (`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that
+state stored per segment of ~sqrt(n_steps) steps). The run is the host-loop solver's step
+(`damjax.core.step.step`) and initial state (`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that
 depend on the calibrated parameters (p0, delta, u_r) are replaced by traced values.
 """
 

@@ -160,3 +160,38 @@ def test_grad_without_a_layout_is_a_clear_error():
     layout = damjax.make_layout(PARAMS, SETUP)  # the documented way (README)
     g = jax.grad(lambda p: damjax.arrest_position_smooth(p, SETUP, layout))(PARAMS)
     assert float(g.strength_gradient) < 0.0  # a steeper strength rise stops the crack sooner
+
+
+@pytest.mark.parametrize("tensile_strength", [math.inf, 4500.0])
+def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
+    """Per-step rematerialisation (default) == blocks == no remat, elastic and MCC slab."""
+    from damjax.core.loop import integrate_pure
+    from damjax.diagnostics import SMOOTH_WIDTH, smooth_arrest_position
+
+    setup = SETUP
+    params = dataclasses.replace(PARAMS, tensile_strength=tensile_strength)
+    layout = pst.make_layout(params, setup)
+
+    def f(q, mode):
+        model, state = pst.build(q, setup, layout)
+        final, _ = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps, mode)
+        # the plastic slab's surrogate needs the wide ramp (see the sigma_t test above)
+        return smooth_arrest_position(model, final, 0.5 if layout.plastic else SMOOTH_WIDTH)
+
+    out = {
+        m: jax.jit(jax.value_and_grad(lambda q, m=m: f(q, m)))(params)
+        for m in ("steps", "blocks", False)
+    }
+    v0, g0 = out[False]
+    names = ["strength_gradient", "softening", "youngs_modulus"]
+    if math.isfinite(tensile_strength):
+        names.append("tensile_strength")
+    for m in ("steps", "blocks"):
+        v, g = out[m]
+        assert float(v) == pytest.approx(float(v0), rel=1e-6)
+        for name in names:
+            a, b = float(getattr(g, name)), float(getattr(g0, name))
+            assert b != 0.0, name
+            assert a == pytest.approx(b, rel=1e-4, abs=1e-7), (m, name, a, b)
+    with pytest.raises(ValueError, match="checkpoint"):
+        f(params, "sometimes")

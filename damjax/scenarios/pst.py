@@ -415,7 +415,7 @@ def _width_average(x: np.ndarray, *fields: np.ndarray) -> tuple[np.ndarray, ...]
 def run_pure(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State, Any]:
     """Traceable full run (for grad / vmap): model, final state and tip per step.
 
-    Reverse mode is checkpointed per chunk (`damjax.core.loop.integrate_pure`).
+    Reverse mode is checkpointed per segment and per step (`damjax.core.loop.integrate_pure`).
     """
     model, state = build(params, setup, layout)
     final, tips = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps)
