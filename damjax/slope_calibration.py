@@ -19,11 +19,11 @@ release fraction O_c (the Brier score of the release map), which is the area of 
 symmetric difference between the two release zones for sharp maps, per cell.
 `calibrate_slope` evaluates it per particle (each particle's damage D_p against the
 observed value of the observation cell it sits in), which keeps the sub-cell position of
-the simulated front in the loss. Gradients
-come from reverse mode through the whole run (`damjax.core.loop.integrate_pure`, one
-state stored per segment of ~sqrt(n_steps) steps). The run is the host-loop solver's step
-(`damjax.core.step.step`) and initial state (`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that
-depend on the calibrated parameters (p0, delta, u_r) are replaced by traced values.
+the simulated front in the loss. Gradients come from reverse mode through the whole run
+(`damjax.core.loop.integrate_pure`, one state stored per segment of ~sqrt(n_steps) steps).
+The run is the host-loop solver's step (`damjax.core.step.step`) and initial state
+(`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that depend on the
+calibrated parameters (p0, delta, u_r) are replaced by traced values.
 """
 
 from __future__ import annotations
