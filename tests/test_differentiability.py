@@ -168,12 +168,11 @@ def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
     from damjax.core.loop import integrate_pure
     from damjax.diagnostics import SMOOTH_WIDTH, smooth_arrest_position
 
-    setup = SETUP
     params = dataclasses.replace(PARAMS, tensile_strength=tensile_strength)
-    layout = pst.make_layout(params, setup)
+    layout = pst.make_layout(params, SETUP)
 
     def f(q, mode):
-        model, state = pst.build(q, setup, layout)
+        model, state = pst.build(q, SETUP, layout)
         final, _ = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps, mode)
         # the plastic slab's surrogate needs the wide ramp (see the sigma_t test above)
         return smooth_arrest_position(model, final, 0.5 if layout.plastic else SMOOTH_WIDTH)
