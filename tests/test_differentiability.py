@@ -162,35 +162,58 @@ def test_grad_without_a_layout_is_a_clear_error():
     assert float(g.strength_gradient) < 0.0  # a steeper strength rise stops the crack sooner
 
 
-@pytest.mark.parametrize("tensile_strength", [math.inf, 4500.0])
-def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
-    """Per-step rematerialisation (default) == blocks == no remat, elastic and MCC slab."""
+def _checkpointed_value_and_grad(params: PSTParams, setup: PSTSetup, mode: object):
     from damjax.core.loop import integrate_pure
     from damjax.diagnostics import SMOOTH_WIDTH, smooth_arrest_position
 
-    params = dataclasses.replace(PARAMS, tensile_strength=tensile_strength)
-    layout = pst.make_layout(params, SETUP)
+    layout = pst.make_layout(params, setup)
 
-    def f(q, mode):
-        model, state = pst.build(q, SETUP, layout)
+    def f(q):
+        model, state = pst.build(q, setup, layout)
         final, _ = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps, mode)
         # the plastic slab's surrogate needs the wide ramp (see the sigma_t test above)
         return smooth_arrest_position(model, final, 0.5 if layout.plastic else SMOOTH_WIDTH)
 
-    out = {
-        m: jax.jit(jax.value_and_grad(lambda q, m=m: f(q, m)))(params)
-        for m in ("steps", "blocks", False)
-    }
-    v0, g0 = out[False]
+    return jax.jit(jax.value_and_grad(f))(params)
+
+
+@pytest.mark.parametrize("tensile_strength", [math.inf, 4500.0])
+def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
+    """Per-step rematerialisation (default) == blocks == no remat, elastic and MCC slab.
+
+    In float64, where the three schemes must agree to rounding. (In float32 the plastic
+    slab's gradient moves by up to ~1 % between compilations of the same maths: the return
+    mapping switches on the sign of a yield function that rounding can flip. The float32
+    accuracy of the default scheme is checked against float64 below.)
+    """
+    params = dataclasses.replace(PARAMS, tensile_strength=tensile_strength)
     names = ["strength_gradient", "softening", "youngs_modulus"]
     if math.isfinite(tensile_strength):
         names.append("tensile_strength")
-    for m in ("steps", "blocks"):
-        v, g = out[m]
-        assert float(v) == pytest.approx(float(v0), rel=1e-6)
-        for name in names:
-            a, b = float(getattr(g, name)), float(getattr(g0, name))
-            assert b != 0.0, name
-            assert a == pytest.approx(b, rel=1e-4, abs=1e-7), (m, name, a, b)
-    with pytest.raises(ValueError, match="checkpoint"):
-        f(params, "sometimes")
+    with jax.enable_x64(True):
+        setup = dataclasses.replace(SETUP, dtype="float64")
+        out = {m: _checkpointed_value_and_grad(params, setup, m) for m in ("steps", "blocks", False)}
+        v0, g0 = out[False]
+        for m in ("steps", "blocks"):
+            v, g = out[m]
+            assert float(v) == pytest.approx(float(v0), rel=1e-12)
+            for name in names:
+                a, b = float(getattr(g, name)), float(getattr(g0, name))
+                assert b != 0.0, name
+                assert a == pytest.approx(b, rel=1e-9), (m, name, a, b)
+        with pytest.raises(ValueError, match="checkpoint"):
+            _checkpointed_value_and_grad(params, setup, "sometimes")
+
+
+def test_float32_gradient_of_the_plastic_slab_matches_float64():
+    """The default scheme's single-precision gradients on an MCC slab, against float64."""
+    params = dataclasses.replace(PARAMS, tensile_strength=4500.0)
+    v32, g32 = _checkpointed_value_and_grad(params, SETUP, "steps")
+    with jax.enable_x64(True):
+        v64, g64 = _checkpointed_value_and_grad(
+            params, dataclasses.replace(SETUP, dtype="float64"), "steps"
+        )
+    assert float(v32) == pytest.approx(float(v64), abs=1e-3)
+    for name in ["strength_gradient", "softening", "youngs_modulus", "tensile_strength"]:
+        a, b = float(getattr(g32, name)), float(getattr(g64, name))
+        assert a == pytest.approx(b, rel=5e-3), (name, a, b)

@@ -137,7 +137,7 @@ def _nan_probe(rule: str, inv: str):
         p0 = mcc.p0_from_tensile_strength(sigma_t_, M, BETA, rule, inv)
         sig, dep = mcc.return_map_plane(eps_, p0, M, BETA, E, NU, inv)
         sx, _, _ = mcc.return_map_uniaxial(E * eps_[0], p0, M, BETA, E, inv)
-        return jnp.sum(sig) + jnp.sum(sx) + jnp.sum(dep)
+        return sum(jnp.sum(c) for c in (*sig, *dep)) + jnp.sum(sx)
 
     return jax.jit(jax.value_and_grad(f, argnums=(0, 1)))
 

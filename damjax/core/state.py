@@ -1,8 +1,9 @@
 """Particle state and per-run model constants of the DA-MPM core.
 
 Particles are slab columns. Arrays carry the particle index last (structure of arrays):
-vectors are (dim, n), the affine velocity (dim, dim, n), strains/stresses (3, n) in
-(xx, yy, xy) order. ``dim`` is 1 for a width-uniform strip (PST) and 2 for a slope.
+vectors are (dim, n), the affine velocity (dim, dim, n). Strains and stresses are tuples of
+three (n,) rows in (xx, yy, xy) order, not stacked (3, n) arrays: the step works on rows,
+and a stacked array costs a slice per row forward and a pad-and-add per row in reverse mode. ``dim`` is 1 for a width-uniform strip (PST) and 2 for a slope.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 import equinox as eqx
+import jax.numpy as jnp
 
 FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture [-]
 
@@ -22,6 +24,11 @@ FAULT_MESSAGES = {
     FAULT_EDGE: "a particle reached the edge of the grid",
     FAULT_THICKNESS: "slab column height h <= 0",
 }
+
+
+def zero_components(n: int, dtype: Any) -> tuple[Any, Any, Any]:
+    """Three zero rows (n,): an unstrained (xx, yy, xy) strain or stress."""
+    return tuple(jnp.zeros((n,), dtype) for _ in range(3))
 
 
 class Model(eqx.Module):
@@ -91,9 +98,9 @@ class State(eqx.Module):
     u: Any  # (dim, n) displacement from the reference position = weak-layer slip [m]
     v: Any  # (dim, n) velocity [m/s]
     C: Any  # (dim, dim, n) affine velocity (APIC/MLS) [1/s]
-    eps: Any  # (3, n) in-plane small strain (xx, yy, xy) [-]
-    sigma: Any  # (3, n) depth-averaged in-plane stress [Pa]
-    eps_p: Any  # (3, n) in-plane plastic strain [-]
+    eps: Any  # (xx, yy, xy) rows (n,) of the in-plane small strain [-]
+    sigma: Any  # (xx, yy, xy) rows (n,) of the depth-averaged in-plane stress [Pa]
+    eps_p: Any  # (xx, yy, xy) rows (n,) of the in-plane plastic strain [-]
     opening: Any  # (n,) accumulated tensile plastic strain (fracture indicator) [-]
     t_fracture: Any  # (n,) time opening first exceeded FRACTURE_STRAIN [s] (inf: never)
     t_broken: Any  # (n,) time the weak layer under the particle lost all cohesion [s]

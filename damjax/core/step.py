@@ -37,19 +37,19 @@ from damjax.core.state import (
 from damjax.materials import mcc, slab, weak_layer
 
 
-def stress_tensor(sigma: Any, dim: int) -> Any:
-    """(dim, dim, n) in-plane stress tensor from (3, n) components."""
+def stress_tensor(sigma: Any, dim: int) -> list[list[Any]]:
+    """In-plane stress tensor as dim x dim nested lists of (n,) rows, from (xx, yy, xy)."""
     if dim == 1:
-        return sigma[0][None, None]
-    return jnp.stack([jnp.stack([sigma[0], sigma[2]]), jnp.stack([sigma[2], sigma[1]])])
+        return [[sigma[0]]]
+    return [[sigma[0], sigma[2]], [sigma[2], sigma[1]]]
 
 
-def strain_increment(C: Any, dt: Any, dim: int) -> Any:
-    """(3, n) small-strain increment dt sym(C); the 1D yy part is set by the lateral law."""
+def strain_increment(C: Any, dt: Any, dim: int) -> tuple[Any, Any, Any]:
+    """(xx, yy, xy) small-strain increment dt sym(C); the 1D yy part is set by the lateral law."""
     if dim == 1:
         z = jnp.zeros_like(C[0, 0])
-        return jnp.stack([dt * C[0, 0], z, z])
-    return dt * jnp.stack([C[0, 0], C[1, 1], 0.5 * (C[0, 1] + C[1, 0])])
+        return dt * C[0, 0], z, z
+    return dt * C[0, 0], dt * C[1, 1], 0.5 * dt * (C[0, 1] + C[1, 0])
 
 
 def broken_mask(model: Model, state: State) -> Any:
@@ -59,13 +59,13 @@ def broken_mask(model: Model, state: State) -> Any:
 
 
 def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, Any]:
-    """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening).
+    """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening), rows (n,).
 
     1D strips get eps_yy from the lateral condition: "constrained" keeps eps_yy = 0,
     "free" keeps sigma_yy = 0 (uniaxial stress, exact uniaxial return mapping).
     """
     E, nu = model.youngs_modulus, model.poisson
-    eps_p = state.eps_p
+    eps_p = tuple(state.eps_p)
     zero = jnp.zeros_like(eps[0])
     if model.dim == 1 and model.lateral == "free":
         sig_tr = E * (eps[0] - eps_p[0])
@@ -74,17 +74,17 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
             sxx, dxx, dyy = mcc.return_map_uniaxial(
                 sig_tr, p0, model.mcc_m, model.mcc_beta, E, model.mcc_invariants
             )
-            eps_p = eps_p + jnp.stack([dxx, dyy, zero])
+            eps_p = (eps_p[0] + dxx, eps_p[1] + dyy, eps_p[2])
             d_open = jnp.maximum(dxx, 0.0)
         else:
             sxx, d_open = sig_tr, zero
-        eps = jnp.stack([eps[0], -nu * sxx / E + eps_p[1], zero])
-        return eps, jnp.stack([sxx, zero, zero]), eps_p, d_open
+        eps = (eps[0], -nu * sxx / E + eps_p[1], zero)
+        return eps, (sxx, zero, zero), eps_p, d_open
     if model.dim == 1:  # constrained: eps_yy = 0
-        eps = eps.at[1].set(0.0)
-    eps_e = eps - eps_p
+        eps = (eps[0], zero, eps[2])
+    eps_e = tuple(a - b for a, b in zip(eps, eps_p, strict=True))
     if not model.plastic:
-        return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero
+        return tuple(eps), slab.plane_stress(eps_e, E, nu), eps_p, zero
     sigma, d_eps_p = mcc.return_map_plane(
         eps_e, _p0(model, state), model.mcc_m, model.mcc_beta, E, nu, model.mcc_invariants
     )
@@ -92,7 +92,7 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
     d_open = jnp.maximum(
         0.5 * (d_eps_p[0] + d_eps_p[1]) + jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30), 0.0
     )
-    return eps, sigma, eps_p + d_eps_p, d_open
+    return tuple(eps), sigma, tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True)), d_open
 
 
 def _p0(model: Model, state: State) -> Any:
@@ -123,9 +123,9 @@ def step(model: Model, state: State) -> State:
 
     # 2. P2G
     st = transfer.stencil(model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic)
-    affine = m * state.C - (dt * inv_d * model.thickness * model.area0) * stress_tensor(
-        state.sigma, dim
-    )
+    sig = stress_tensor(state.sigma, dim)
+    c_sig = dt * inv_d * model.thickness * model.area0
+    affine = [[m * state.C[a, b] - c_sig * sig[a][b] for b in range(dim)] for a in range(dim)]
     v_star = state.v + dt * acc
     n_nodes = model.n_nodes
     S = len(st.w)
@@ -138,7 +138,7 @@ def step(model: Model, state: State) -> State:
         for k in range(S):
             q = mv
             for b in range(dim):
-                q = q + affine[a, b] * st.dpos[k][b]
+                q = q + affine[a][b] * st.dpos[k][b]
             rows.append(st.w[k] * q)
         grid_mom.append(transfer.p2g(st, rows, n_nodes))
     fcap = jnp.where(broken, m * model.friction * model.g_normal, 0.0)
@@ -176,8 +176,9 @@ def step(model: Model, state: State) -> State:
     v_new = jnp.stack(v_rows)
     C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new
+    d_eps = strain_increment(C_new, dt, dim)
     eps, sigma, eps_p, d_open = constitutive(
-        model, state, state.eps + strain_increment(C_new, dt, dim)
+        model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True))
     )
     opening = state.opening + d_open
     t_fracture = jnp.where(
@@ -202,7 +203,7 @@ def step(model: Model, state: State) -> State:
     # runtime guards (cheap reductions); the caller stops at the first fault.
     # J = exp(tr eps) reaches 0 only by underflow: test tr eps, not min(exp(.)), which
     # XLA:CPU evaluates in a slow reduction fusion (30 us of a 230 us baseline PST step)
-    log_tiny = float(np.log(np.finfo(eps.dtype).tiny))
+    log_tiny = float(np.log(np.finfo(eps[0].dtype).tiny))
     edge = jnp.zeros((), bool)
     for d in range(dim):
         if not model.periodic[d]:

@@ -161,17 +161,18 @@ def return_map_plane(
     poisson: Any,
     invariants: str = "3d",
 ) -> tuple[Any, Any]:
-    """Closest-point projection of a plane-stress elastic trial strain (3, n).
+    """Closest-point projection of a plane-stress elastic trial strain (xx, yy, xy).
 
-    Returns (sigma (3, n), plastic strain increment (3, n)). Elastic states pass through
-    unchanged (bit for bit).
+    ``eps_e`` is three (n,) rows (a tuple or a (3, n) array). Returns (sigma, plastic strain
+    increment), each a tuple of three (n,) rows. Elastic states pass through unchanged (bit
+    for bit).
     """
     kappa = youngs_modulus / (2.0 * (1.0 - poisson))  # in-plane bulk modulus
     G = youngs_modulus / (2.0 * (1.0 + poisson))
     tr = eps_e[0] + eps_e[1]
-    dev = jnp.stack([eps_e[0] - 0.5 * tr, eps_e[1] - 0.5 * tr, eps_e[2]])
+    dev = (eps_e[0] - 0.5 * tr, eps_e[1] - 0.5 * tr, eps_e[2])
     p_tr = -kappa * tr
-    s_tr = 2.0 * G * dev
+    s_tr = tuple(2.0 * G * d for d in dev)
     q_tr = _sqrt(1.5 * (s_tr[0] ** 2 + s_tr[1] ** 2 + 2.0 * s_tr[2] ** 2))
     finite = jnp.isfinite(p0)
     p0s = jnp.where(finite, p0, 1.0)
@@ -199,20 +200,18 @@ def return_map_plane(
     q = q_tr / (1.0 + a * dl)
     p = p_c + (p_tr - p_c) / (1.0 + 2.0 * b * dl)
     scale = jnp.where(q_tr > 0.0, q / jnp.where(q_tr > 0.0, q_tr, 1.0), 0.0)
-    s = s_tr * scale
-    sigma_pl = jnp.stack([s[0] - p, s[1] - p, s[2]])
+    s = tuple(c * scale for c in s_tr)
+    sigma_pl = (s[0] - p, s[1] - p, s[2])
     c = youngs_modulus / (1.0 - poisson**2)
-    sigma_el = jnp.stack(
-        [
-            c * (eps_e[0] + poisson * eps_e[1]),
-            c * (eps_e[1] + poisson * eps_e[0]),
-            c * (1.0 - poisson) * eps_e[2],
-        ]
+    sigma_el = (
+        c * (eps_e[0] + poisson * eps_e[1]),
+        c * (eps_e[1] + poisson * eps_e[0]),
+        c * (1.0 - poisson) * eps_e[2],
     )
-    sigma = jnp.where(plastic, sigma_pl, sigma_el)
+    sigma = tuple(jnp.where(plastic, a, b) for a, b in zip(sigma_pl, sigma_el, strict=True))
     # plastic strain = trial elastic strain - elastic strain of the returned stress
     tr_new = -2.0 * p / (2.0 * kappa)
-    dev_new = s / (2.0 * G)
-    eps_e_new = jnp.stack([dev_new[0] + 0.5 * tr_new, dev_new[1] + 0.5 * tr_new, dev_new[2]])
-    d_eps_p = jnp.where(plastic, eps_e - eps_e_new, 0.0)
+    dev_new = tuple(c / (2.0 * G) for c in s)
+    eps_e_new = (dev_new[0] + 0.5 * tr_new, dev_new[1] + 0.5 * tr_new, dev_new[2])
+    d_eps_p = tuple(jnp.where(plastic, eps_e[i] - eps_e_new[i], 0.0) for i in range(3))
     return sigma, d_eps_p

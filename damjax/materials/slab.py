@@ -1,7 +1,7 @@
 """Slab constitutive laws: depth-averaged in-plane stress in plane stress.
 
-Strains and stresses are stored in Voigt-like component arrays of shape (3, n):
-(xx, yy, xy) with the *tensor* shear strain eps_xy. Small strains: the slab strains of a
+Strains and stresses are Voigt-like components (xx, yy, xy), with the *tensor* shear
+strain eps_xy, passed as three (n,) rows (a tuple, or a (3, n) array indexed by row). Small strains: the slab strains of a
 PST are ~1e-3 and rotations are negligible.
 
 Width-uniform strips (the 1D path) need a lateral condition for eps_yy:
@@ -16,13 +16,11 @@ from typing import Any
 import jax.numpy as jnp
 
 
-def plane_stress(eps: Any, youngs_modulus: Any, poisson: Any) -> Any:
-    """Linear elastic plane-stress sigma [Pa] of the strain eps (3, n) (xx, yy, xy)."""
+def plane_stress(eps: Any, youngs_modulus: Any, poisson: Any) -> tuple[Any, Any, Any]:
+    """Linear elastic plane-stress sigma [Pa] rows (xx, yy, xy) of the strain rows eps."""
     c = youngs_modulus / (1.0 - poisson**2)
     exx, eyy, exy = eps[0], eps[1], eps[2]
-    return jnp.stack(
-        [c * (exx + poisson * eyy), c * (eyy + poisson * exx), c * (1.0 - poisson) * exy]
-    )
+    return c * (exx + poisson * eyy), c * (eyy + poisson * exx), c * (1.0 - poisson) * exy
 
 
 def lateral_strain(eps_xx: Any, poisson: Any, lateral: str) -> Any:

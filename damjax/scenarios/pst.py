@@ -26,7 +26,7 @@ import numpy as np
 from damjax import theory
 from damjax.config import G_ACC, PSTParams, PSTSetup, is_plastic, validate
 from damjax.core.loop import integrate, integrate_pure
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State, zero_components
 from damjax.core.step import column_height
 from damjax.materials import mcc, weak_layer
 
@@ -204,14 +204,13 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     )
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
     u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
-    zeros3 = jnp.zeros((3, n), dtype)
     state = State(
         u=u0,
         v=jnp.zeros((layout.dim, n), dtype),
         C=jnp.zeros((layout.dim, layout.dim, n), dtype),
-        eps=zeros3,
-        sigma=jnp.zeros((3, n), dtype),
-        eps_p=jnp.zeros((3, n), dtype),
+        eps=zero_components(n, dtype),
+        sigma=zero_components(n, dtype),
+        eps_p=zero_components(n, dtype),
         opening=jnp.zeros((n,), dtype),
         t_fracture=jnp.full((n,), jnp.inf, dtype),
         t_broken=jnp.full((n,), jnp.inf, dtype),

@@ -28,7 +28,7 @@ import numpy as np
 from damjax import theory
 from damjax.config import G_ACC, PSTParams, param_problems
 from damjax.core.loop import integrate
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State, zero_components
 from damjax.core.step import column_height
 from damjax.materials import mcc, weak_layer
 from damjax.scenarios.pst import SAW_LEAD
@@ -216,14 +216,13 @@ def build(
     )
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
     u0 = (f(params.density) * f(params.thickness) / K) * g_t
-    z3 = lambda: jnp.zeros((3, n), dtype)  # noqa: E731
     state = State(
         u=u0,
         v=jnp.zeros((2, n), dtype),
         C=jnp.zeros((2, 2, n), dtype),
-        eps=z3(),
-        sigma=z3(),
-        eps_p=z3(),
+        eps=zero_components(n, dtype),
+        sigma=zero_components(n, dtype),
+        eps_p=zero_components(n, dtype),
         opening=jnp.zeros((n,), dtype),
         t_fracture=jnp.full((n,), jnp.inf, dtype),
         t_broken=jnp.full((n,), jnp.inf, dtype),
