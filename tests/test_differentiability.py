@@ -192,7 +192,8 @@ def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
         names.append("tensile_strength")
     with jax.enable_x64(True):
         setup = dataclasses.replace(SETUP, dtype="float64")
-        out = {m: _checkpointed_value_and_grad(params, setup, m) for m in ("steps", "blocks", False)}
+        modes = ("steps", "blocks", False)
+        out = {m: _checkpointed_value_and_grad(params, setup, m) for m in modes}
         v0, g0 = out[False]
         for m in ("steps", "blocks"):
             v, g = out[m]

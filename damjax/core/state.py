@@ -3,7 +3,8 @@
 Particles are slab columns. Arrays carry the particle index last (structure of arrays):
 vectors are (dim, n), the affine velocity (dim, dim, n). Strains and stresses are tuples of
 three (n,) rows in (xx, yy, xy) order, not stacked (3, n) arrays: the step works on rows,
-and a stacked array costs a slice per row forward and a pad-and-add per row in reverse mode. ``dim`` is 1 for a width-uniform strip (PST) and 2 for a slope.
+and a stacked array costs a slice per row forward and a pad-and-add per row in reverse mode.
+``dim`` is 1 for a width-uniform strip (PST) and 2 for a slope.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Slab constitutive laws: depth-averaged in-plane stress in plane stress.
 
 Strains and stresses are Voigt-like components (xx, yy, xy), with the *tensor* shear
-strain eps_xy, passed as three (n,) rows (a tuple, or a (3, n) array indexed by row). Small strains: the slab strains of a
-PST are ~1e-3 and rotations are negligible.
+strain eps_xy, passed as three (n,) rows (a tuple, or a (3, n) array indexed by row).
+Small strains: the slab strains of a PST are ~1e-3 and rotations are negligible.
 
 Width-uniform strips (the 1D path) need a lateral condition for eps_yy:
 - "constrained": eps_yy = 0 (periodic in y), sigma_yy = nu sigma_xx, modulus E/(1-nu^2);
