@@ -135,13 +135,19 @@ def pst_elastic_targets() -> None:
 
 @case
 def pst_grad() -> None:
-    """Gradient of the smooth arrest position vs the forward run, full baseline PST."""
+    """Gradient of the smooth arrest position vs the forward run, full baseline PST.
+
+    ``DAMJAX_BENCH_DURATION`` (s, default 3) lengthens the run: 4.5 s is 60 000 steps.
+    """
+    import os
+
     import jax
 
     from damjax import PSTParams, PSTSetup
     from damjax.scenarios import pst
 
-    params, setup = PSTParams(), PSTSetup()
+    duration = float(os.environ.get("DAMJAX_BENCH_DURATION", "3.0"))
+    params, setup = PSTParams(), PSTSetup(duration=duration)
     layout = pst.make_layout(params, setup)
     fwd = jax.jit(lambda q: pst.arrest_position_smooth(q, setup, layout))
     grad = jax.jit(jax.value_and_grad(lambda q: pst.arrest_position_smooth(q, setup, layout)))

@@ -148,7 +148,7 @@ def integrate_pure(
       and recomputes each step's particle work, without the scatters, right before its
       transpose: no per-step residual stacks (a step has ~70 particle-sized residuals;
       writing and reading them cost more than a forward step). Memory O(n_steps / K +
-      K) states. Baseline PST gradient: 5.3 x the forward run, against 6.9 x for
+      K) states. Baseline PST gradient: 4.9 x the forward run, against 6.9 x for
       ``"blocks"`` (benchmarks/README.md).
     - ``"blocks"``: the earlier two-level scheme, one state per chunk and one per block of
       <= 50 steps, with the residuals of a block stored.
