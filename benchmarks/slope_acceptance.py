@@ -97,6 +97,12 @@ def main(argv: list[str]) -> int:
     ap.add_argument(
         "--mean-at", type=float, default=None, help="position of the 1 kPa mean strength [m]"
     )
+    ap.add_argument(
+        "--field-dx",
+        type=float,
+        default=None,
+        help="grid spacing the GRF is drawn on [m] (default: dx; fix it to compare grids)",
+    )
     ap.add_argument("--no-controls", action="store_true", help="skip the two controls")
     ap.add_argument("--only", default="", help="comma-separated run names (seed0,...,planar)")
     a = ap.parse_args(argv)
@@ -107,6 +113,7 @@ def main(argv: list[str]) -> int:
         length=a.length,
         width=a.width,
         mean_at=a.mean_at,
+        field_dx=a.field_dx,
     )
     runs = [(f"seed{k}", dataclasses.replace(base, seed=k)) for k in range(a.seeds)]
     if not a.no_controls:

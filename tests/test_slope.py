@@ -7,6 +7,7 @@ Runs are small (seconds each): the shipped 50 m slopes are only validated here.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 import tomllib
@@ -474,3 +475,25 @@ def test_grf_strength_plateau_below_mean_at():
     doc["strength"]["mean_at"] = "low"
     with pytest.raises(ValueError, match="strength.mean_at"):
         quiet_parse(doc)
+
+
+def test_generic_slope_field_dx_gives_the_same_field_on_every_grid():
+    """field_dx fixes the GRF's grid: the same seed is the same field at dx 0.25 and 0.125."""
+    from damjax.scenarios.generic_slope import cell_centres
+
+    base = GenericSlopeCase(length=20.0, width=10.0, dx=0.25, trend=0.0, grf_length=4.0)
+    plain = strength_field(base)
+    # on its own grid, field_dx = dx is the plain field (interpolation at the nodes)
+    assert strength_field(dataclasses.replace(base, field_dx=0.25)) == pytest.approx(plain)
+    # dx = 0.25 / 3: every third fine centre is a coarse centre, where the interpolated
+    # field must equal the coarse one
+    fine = strength_field(dataclasses.replace(base, dx=0.25 / 3, field_dx=0.25))
+    assert fine.shape == (240, 120)
+    assert fine[1::3, 1::3] == pytest.approx(plain, rel=1e-6)
+    # without field_dx the finer grid draws a different sample
+    other = strength_field(dataclasses.replace(base, dx=0.25 / 3))
+    assert np.corrcoef(other[1::3, 1::3].ravel(), plain.ravel())[0, 1] < 0.9
+    x, _ = cell_centres(base)
+    assert x.size == 80
+    with pytest.raises(ValueError, match="field_dx"):
+        strength_field(dataclasses.replace(base, field_dx=3.0))
