@@ -248,28 +248,73 @@ def plateau_trend_field(
     length_scale: ArrayLike,
     angle_deg: float = 0.0,
     model: CovarianceModel = "gaussian",
+    field_dx: float | None = None,
 ) -> np.ndarray:
     """A slope's weak-layer strength on cell centres x (nx,) by ny columns [Pa] (numpy).
 
     Expected strength `mean` up to x = `mean_at`, rising `trend` [Pa/m] above it (a PST's
     L_ss and gradient), plus `std` times a stationary `grf` sample (no trend), clipped from
-    below at `TAU_FLOOR`. ``std = 0``: the expected strength alone.
+    below at `TAU_FLOOR`. ``std = 0``: the expected strength alone. The cells are
+    (i + 1/2) dx apart from 0 in both directions.
+
+    ``field_dx`` [m]: draw the random part on cells of this size over the same extent and
+    interpolate it bilinearly to the cells (None: on the cells themselves). A sample
+    depends on the grid it is drawn on, so a grid-convergence study fixes ``field_dx``:
+    the same key then gives the same field on every grid. At most half the shortest
+    correlation length.
     """
     expected = mean + trend * np.maximum(np.asarray(x, dtype=float) - mean_at, 0.0)
     if std == 0.0:
         return np.repeat(expected[:, None], ny, axis=1)
+    ls = np.asarray(length_scale, dtype=float)
+    fdx = dx if field_dx is None else float(field_dx)
+    if field_dx is not None and not (math.isfinite(fdx) and 0.0 < fdx <= 0.5 * float(np.min(ls))):
+        raise ValueError(
+            f"field_dx = {field_dx!r}: must be in (0, {0.5 * float(np.min(ls))}] m "
+            "(half the shortest correlation length)"
+        )
+    if field_dx is None:
+        shape = (len(x), ny)
+    else:
+        shape = (max(2, round(len(x) * dx / fdx)), max(2, round(ny * dx / fdx)))
     noise = grf(
         key,
-        (len(x), ny),
-        dx,
+        shape,
+        fdx,
         mean=0.0,
         std=std,
-        length_scale=np.asarray(length_scale, dtype=float),
+        length_scale=ls,
         angle_deg=angle_deg,
         model=model,
         floor=None,
     )
-    return np.maximum(expected[:, None] + np.asarray(noise, dtype=float), TAU_FLOOR)
+    noise = np.asarray(noise, dtype=float)
+    if field_dx is not None:
+        centres = [(np.arange(n) + 0.5) * fdx for n in shape]
+        noise = bilinear(noise, *centres, np.asarray(x, dtype=float), (np.arange(ny) + 0.5) * dx)
+    return np.maximum(expected[:, None] + noise, TAU_FLOOR)
+
+
+def bilinear(
+    f: np.ndarray, xf: np.ndarray, yf: np.ndarray, x: np.ndarray, y: np.ndarray
+) -> np.ndarray:
+    """f (nx_f, ny_f) given on the regular centres xf, yf, at the points x (nx,) by y (ny,)
+    (numpy); clamped to the edge values outside [xf[0], xf[-1]] and [yf[0], yf[-1]]."""
+
+    def weights(c: np.ndarray, cf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.clip((c - cf[0]) / (cf[1] - cf[0]), 0.0, cf.size - 1)
+        i0 = np.minimum(np.floor(t).astype(int), cf.size - 2)
+        return i0, t - i0
+
+    i0, tx = weights(x, xf)
+    j0, ty = weights(y, yf)
+    tx, ty = tx[:, None], ty[None, :]
+    return (
+        (1 - tx) * (1 - ty) * f[i0][:, j0]
+        + tx * (1 - ty) * f[i0 + 1][:, j0]
+        + (1 - tx) * ty * f[i0][:, j0 + 1]
+        + tx * ty * f[i0 + 1][:, j0 + 1]
+    )
 
 
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))

@@ -45,7 +45,9 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   rising trend [Pa/m] up-slope above it (as a PST's
                                 #   L_ss), std [Pa],
                                 #   length_scale [m] (number or [l1, l2]), angle_deg,
-                                #   model ("gaussian" | "exponential"), seed (integer)
+                                #   model ("gaussian" | "exponential"), seed (integer),
+                                #   field_dx [m] (draw the field on this grid and
+                                #   interpolate: the same seed, the same field on any dx)
                                 # "map": file (CSV x_m, y_m, tau_peak_pa; NetCDF;
                                 #   GeoTIFF), origin = [x, y] map coordinates of the
                                 #   release area's lower left corner (default [0, 0])
@@ -115,6 +117,7 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "angle_deg": ("float", _ANY, "deg"),
         "model": ("str", COVARIANCE_MODELS, ""),
         "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
+        "field_dx": ("float", _POS, "m"),
     },
     "map": {"file": ("str", None, ""), "origin": ("pair", _ANY, "m")},
 }
@@ -549,6 +552,11 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
         import jax
 
         g = {**_GRF_DEFAULTS, **st}
+        if "field_dx" in st and float(st["field_dx"]) > 0.5 * float(np.min(g["length_scale"])):
+            raise _FieldProblem(
+                f"strength.field_dx = {_fmt(st['field_dx'])}: must be at most half the "
+                f"shortest length_scale ({0.5 * float(np.min(g['length_scale']))} m)"
+            )
         tau = fields.plateau_trend_field(
             jax.random.key(int(g["seed"])),
             x,
@@ -561,6 +569,7 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
             length_scale=g["length_scale"],
             angle_deg=float(g["angle_deg"]),
             model=g["model"],
+            field_dx=None if "field_dx" not in st else float(st["field_dx"]),
         )
     else:
         try:

@@ -497,3 +497,21 @@ def test_generic_slope_field_dx_gives_the_same_field_on_every_grid():
     assert x.size == 80
     with pytest.raises(ValueError, match="field_dx"):
         strength_field(dataclasses.replace(base, field_dx=3.0))
+
+
+def test_scenario_grf_field_dx_fixes_the_sample_across_grids():
+    """[strength] field_dx in a slope scenario: the same seed, the same field on any dx."""
+    doc = raw("slope-generic-50x60")
+    doc["setup"].update(length=30.0, width=10.0, dx=0.25, start=[5.0, 5.0])
+    doc["strength"].update(length_scale=4.0, field_dx=0.25, trend=0.0)
+    del doc["strength"]["start_window"]
+    _, _, coarse, _ = slope_scenario.resolve_fields(quiet_parse(doc))
+    doc["setup"]["dx"] = 0.25 / 3
+    _, _, fine, _ = slope_scenario.resolve_fields(quiet_parse(doc))
+    assert fine[1::3, 1::3] == pytest.approx(coarse, rel=1e-6)
+    doc["strength"]["field_dx"] = 3.0
+    with pytest.raises(ValueError, match="strength.field_dx = 3.0: must be at most half"):
+        slope_scenario.resolve_fields(quiet_parse(doc))
+    doc["strength"]["field_dx"] = -1.0
+    with pytest.raises(ValueError, match="strength.field_dx"):
+        quiet_parse(doc)

@@ -130,52 +130,17 @@ def strength_field(case: GenericSlopeCase) -> np.ndarray:
     from damjax import fields
 
     x, y = cell_centres(case)
-    fdx = case.dx if case.field_dx is None else float(case.field_dx)
-    if not (math.isfinite(fdx) and 0.0 < fdx <= 0.5 * case.grf_length):
-        raise ValueError(
-            f"GenericSlopeCase.field_dx = {case.field_dx!r}: must be in "
-            f"(0, grf_length / 2 = {0.5 * case.grf_length}] m"
-        )
-    if case.field_dx is not None:
-        x_f, y_f = cell_centres(dataclasses.replace(case, dx=fdx))
-    else:
-        x_f, y_f = x, y
-    tau = fields.plateau_trend_field(
+    return fields.plateau_trend_field(
         jax.random.key(case.seed),
-        x_f,
-        y_f.size,
-        fdx,
+        x,
+        y.size,
+        case.dx,
         mean=case.mean,
         mean_at=case.start_window[0] if case.mean_at is None else case.mean_at,
         trend=case.trend,
         std=case.grf_std,
         length_scale=case.grf_length,
-    )
-    if case.field_dx is None:
-        return tau
-    return _bilinear(tau, x_f, y_f, x, y)
-
-
-def _bilinear(
-    f: np.ndarray, xf: np.ndarray, yf: np.ndarray, x: np.ndarray, y: np.ndarray
-) -> np.ndarray:
-    """f (nx_f, ny_f) on the regular centres xf, yf, at the points x (nx,) by y (ny,);
-    clamped to the edge values outside [xf[0], xf[-1]] (and likewise in y)."""
-
-    def weights(c: np.ndarray, cf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        t = np.clip((c - cf[0]) / (cf[1] - cf[0]) if cf.size > 1 else 0.0 * c, 0, cf.size - 1)
-        i0 = np.minimum(np.floor(t).astype(int), max(cf.size - 2, 0))
-        return i0, t - i0
-
-    i0, tx = weights(x, xf)
-    j0, ty = weights(y, yf)
-    i1, j1 = np.minimum(i0 + 1, xf.size - 1), np.minimum(j0 + 1, yf.size - 1)
-    tx, ty = tx[:, None], ty[None, :]
-    return (
-        (1 - tx) * (1 - ty) * f[i0][:, j0]
-        + tx * (1 - ty) * f[i1][:, j0]
-        + (1 - tx) * ty * f[i0][:, j1]
-        + tx * ty * f[i1][:, j1]
+        field_dx=case.field_dx,
     )
 
 
