@@ -84,7 +84,7 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
         eps = (eps[0], zero, eps[2])
     eps_e = tuple(a - b for a, b in zip(eps, eps_p, strict=True))
     if not model.plastic:
-        return tuple(eps), slab.plane_stress(eps_e, E, nu), eps_p, zero
+        return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero
     sigma, d_eps_p = mcc.return_map_plane(
         eps_e, _p0(model, state), model.mcc_m, model.mcc_beta, E, nu, model.mcc_invariants
     )
@@ -92,7 +92,7 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
     d_open = jnp.maximum(
         0.5 * (d_eps_p[0] + d_eps_p[1]) + jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30), 0.0
     )
-    return tuple(eps), sigma, tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True)), d_open
+    return eps, sigma, tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True)), d_open
 
 
 def _p0(model: Model, state: State) -> Any:

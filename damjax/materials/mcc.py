@@ -45,6 +45,8 @@ from typing import Any
 
 import jax.numpy as jnp
 
+from damjax.materials import slab
+
 P0_RULES = ("paper", "uniaxial")
 INVARIANTS = ("3d", "plane")
 _NEWTON_ITERS = 8
@@ -202,12 +204,7 @@ def return_map_plane(
     scale = jnp.where(q_tr > 0.0, q / jnp.where(q_tr > 0.0, q_tr, 1.0), 0.0)
     s = tuple(c * scale for c in s_tr)
     sigma_pl = (s[0] - p, s[1] - p, s[2])
-    c = youngs_modulus / (1.0 - poisson**2)
-    sigma_el = (
-        c * (eps_e[0] + poisson * eps_e[1]),
-        c * (eps_e[1] + poisson * eps_e[0]),
-        c * (1.0 - poisson) * eps_e[2],
-    )
+    sigma_el = slab.plane_stress(eps_e, youngs_modulus, poisson)
     sigma = tuple(jnp.where(plastic, a, b) for a, b in zip(sigma_pl, sigma_el, strict=True))
     # plastic strain = trial elastic strain - elastic strain of the returned stress
     tr_new = -2.0 * p / (2.0 * kappa)
