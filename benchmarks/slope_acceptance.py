@@ -44,7 +44,15 @@ up-slope speeds 1.08-1.30 c_s in every seed. The whole-run means (cross 0.70-0.8
 0.79-1.03 c_s) mix in the acceleration and the arrest; by them seed 0 runs faster across
 (0.86) than up-slope (0.79), where it decelerates over the roll.
 
-Grid: all five seeds on dx 0.1 m (`python -m benchmarks.slope_acceptance --dx 0.1
+Grid. The same fields on dx 0.1 m (`--dx 0.1 --field-dx 0.2 --no-controls`: each seed's field
+drawn on the dx 0.2 m grid and interpolated; rows in
+`slope_acceptance_results_dx0.1_field0.2.jsonl`; 320-418 s per run, a test suite ran
+alongside): 37.3 / 32.4 / 39.5 / 41.1 / 39.9 m from the start (dx 0.2 m: 38.6 / 32.4 / 39.6
+/ 41.0 / 40.0), the same starts to 0.05 m, peak speeds 1.08-1.29 c_s up-slope and
+0.86-0.95 c_s across. The arrest is grid-converged to 1.3 m: the differences between the
+dx 0.2 m table and the one below come from the field, not from the grid.
+
+Without `field_dx`, all five seeds on dx 0.1 m (`python -m benchmarks.slope_acceptance --dx 0.1
 --no-controls`, 300 000 particles, 8300 steps = 3 s, 349-419 s per run, stop 12; rows in
 `slope_acceptance_results_dx0.1.jsonl`). The GRF is drawn on the simulation grid, so each
 seed is a different sample of the field than on dx 0.2 m (and starts at a different weak
