@@ -270,8 +270,8 @@ def plateau_trend_field(
     fdx = dx if field_dx is None else float(field_dx)
     if field_dx is not None and not (math.isfinite(fdx) and 0.0 < fdx <= 0.5 * float(np.min(ls))):
         raise ValueError(
-            f"field_dx = {field_dx!r}: must be in (0, {0.5 * float(np.min(ls))}] m "
-            "(half the shortest correlation length)"
+            f"field_dx = {field_dx!r}: must be at most half the shortest length_scale "
+            f"({0.5 * float(np.min(ls))} m) and > 0"
         )
     if field_dx is None:
         shape = (len(x), ny)
@@ -290,31 +290,9 @@ def plateau_trend_field(
     )
     noise = np.asarray(noise, dtype=float)
     if field_dx is not None:
-        centres = [(np.arange(n) + 0.5) * fdx for n in shape]
-        noise = bilinear(noise, *centres, np.asarray(x, dtype=float), (np.arange(ny) + 0.5) * dx)
+        xf, yf = ((np.arange(n) + 0.5) * fdx for n in shape)
+        noise = map_on_grid(xf, yf, noise, x, (np.arange(ny) + 0.5) * dx)
     return np.maximum(expected[:, None] + noise, TAU_FLOOR)
-
-
-def bilinear(
-    f: np.ndarray, xf: np.ndarray, yf: np.ndarray, x: np.ndarray, y: np.ndarray
-) -> np.ndarray:
-    """f (nx_f, ny_f) given on the regular centres xf, yf, at the points x (nx,) by y (ny,)
-    (numpy); clamped to the edge values outside [xf[0], xf[-1]] and [yf[0], yf[-1]]."""
-
-    def weights(c: np.ndarray, cf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        t = np.clip((c - cf[0]) / (cf[1] - cf[0]), 0.0, cf.size - 1)
-        i0 = np.minimum(np.floor(t).astype(int), cf.size - 2)
-        return i0, t - i0
-
-    i0, tx = weights(x, xf)
-    j0, ty = weights(y, yf)
-    tx, ty = tx[:, None], ty[None, :]
-    return (
-        (1 - tx) * (1 - ty) * f[i0][:, j0]
-        + tx * (1 - ty) * f[i0 + 1][:, j0]
-        + (1 - tx) * ty * f[i0][:, j0 + 1]
-        + tx * ty * f[i0 + 1][:, j0 + 1]
-    )
 
 
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))

@@ -552,25 +552,23 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
         import jax
 
         g = {**_GRF_DEFAULTS, **st}
-        if "field_dx" in st and float(st["field_dx"]) > 0.5 * float(np.min(g["length_scale"])):
-            raise _FieldProblem(
-                f"strength.field_dx = {_fmt(st['field_dx'])}: must be at most half the "
-                f"shortest length_scale ({0.5 * float(np.min(g['length_scale']))} m)"
+        try:
+            tau = fields.plateau_trend_field(
+                jax.random.key(int(g["seed"])),
+                x,
+                y.size,
+                setup.dx,
+                mean=float(st.get("mean", params.tau_peak)),
+                mean_at=float(g["mean_at"]),
+                trend=float(g["trend"]),
+                std=float(g["std"]),
+                length_scale=g["length_scale"],
+                angle_deg=float(g["angle_deg"]),
+                model=g["model"],
+                field_dx=None if "field_dx" not in st else float(st["field_dx"]),
             )
-        tau = fields.plateau_trend_field(
-            jax.random.key(int(g["seed"])),
-            x,
-            y.size,
-            setup.dx,
-            mean=float(st.get("mean", params.tau_peak)),
-            mean_at=float(g["mean_at"]),
-            trend=float(g["trend"]),
-            std=float(g["std"]),
-            length_scale=g["length_scale"],
-            angle_deg=float(g["angle_deg"]),
-            model=g["model"],
-            field_dx=None if "field_dx" not in st else float(st["field_dx"]),
-        )
+        except ValueError as exc:  # field_dx coarser than the correlation allows
+            raise _FieldProblem(f"strength.{exc}") from None
     else:
         try:
             mx, my, mtau = fields.load_strength_map(st["file"])
