@@ -62,14 +62,21 @@ from damjax.scenarios.generic_slope import fig12_params
 from damjax.scenarios.slope import SlopeSetup, simulate_slope
 
 L, W, THETA, TRUE_SIGMA_T = 30.0, 8.0, 125.0, 4000.0
+G_F = 1.0  # slab fracture energy [J/m^2] of the truth and of the calibrated model
 
 
 def synthetic_case(
-    dx: float = 0.125, fine_dx: float | None = None, obs_cell: float = 0.5, seed: int = 7
+    dx: float = 0.125,
+    fine_dx: float | None = None,
+    obs_cell: float = 0.5,
+    seed: int = 7,
+    fracture_energy: float = G_F,
 ) -> dict:
     """Truth field, reference (fine) run, observed map, measured map, coarse problem.
 
-    The reference runs on ``fine_dx`` (default dx / 2) with 2 x 2 particles per cell."""
+    The reference runs on ``fine_dx`` (default dx / 2) with 2 x 2 particles per cell; the
+    slab's fracture energy ``fracture_energy`` [J/m^2] (inf: perfectly plastic) is known
+    to the calibration."""
     fine_dx = 0.5 * dx if fine_dx is None else fine_dx
     xf = np.arange(0.0, L + 1e-9, 0.125)
     yf = np.arange(0.0, W + 1e-9, 0.125)
@@ -100,7 +107,7 @@ def synthetic_case(
     )
     t0 = time.perf_counter()
     ref = simulate_slope(
-        fig12_params(tensile_strength=TRUE_SIGMA_T),
+        fig12_params(tensile_strength=TRUE_SIGMA_T, slab_fracture_energy=fracture_energy),
         fine,
         slope_deg=35.0,
         tau_peak=fields.map_on_grid(xf, yf, true_tau, *centres(fine_dx)),
@@ -117,7 +124,9 @@ def synthetic_case(
         0, 20.0, (xm.size, ym.size)
     )
     tau = fields.map_on_grid(xm, ym, measured, *centres(dx))
-    problem = sc.slope_problem(fig12_params(), coarse, slope_deg=35.0, tau_peak=tau)
+    problem = sc.slope_problem(
+        fig12_params(slab_fracture_energy=fracture_energy), coarse, slope_deg=35.0, tau_peak=tau
+    )
     return dict(
         reference=ref,
         reference_time_s=ref_time,
@@ -138,13 +147,20 @@ def main(argv: list[str]) -> int:
     ap.add_argument(
         "--fine-dx", type=float, default=None, help="reference grid spacing [m] (default dx/2)"
     )
+    ap.add_argument(
+        "--fracture-energy",
+        type=float,
+        default=G_F,
+        help="slab fracture energy G_f [J/m^2] (inf: the perfectly plastic slab)",
+    )
     a = ap.parse_args(argv)
-    c = synthetic_case(dx=a.dx, fine_dx=a.fine_dx)
+    c = synthetic_case(dx=a.dx, fine_dx=a.fine_dx, fracture_energy=a.fracture_energy)
     s = c["reference"].summary
     print(
         json.dumps(
             dict(
                 case="slope_calibration_reference",
+                fracture_energy=a.fracture_energy,
                 release_area_m2=s["release_area_m2"],
                 upslope_arrest_distance_m=s["upslope_arrest_distance_m"],
                 n_particles=s["n_particles"],
@@ -169,6 +185,7 @@ def main(argv: list[str]) -> int:
         json.dumps(
             dict(
                 case="slope_calibration",
+                fracture_energy=a.fracture_energy,
                 true_sigma_t=TRUE_SIGMA_T,
                 start=a.start,
                 sigma_t=est,

@@ -54,6 +54,12 @@ class PSTParams(eqx.Module):
         mcc_beta: cohesion ratio beta of the MCC surface (tension/compression) [-].
         mcc_xi: softening coefficient xi of p0 with volumetric plastic strain [-]
             (SinhExpl law, `damjax.materials.mcc`); 0 is perfect plasticity.
+        slab_fracture_energy: fracture energy G_f of the slab's tensile fracture [J/m^2]
+            (crack-band softening, `damjax.materials.mcc.crack_band_factor`): p0 decays
+            as exp(-w / w_c) with the band's opening w = opening strain x dx and
+            w_c = G_f / sigma_y, so that a fracture dissipates G_f per unit crack area
+            on any grid. inf (default) is the paper's perfectly plastic slab, whose
+            fractures are grid-dependent.
         strength_profile: optional weak-layer strength tau_p [Pa] at m >= 2 equally
             spaced points spanning [0, length] of the PST, linearly interpolated at the
             particles (a differentiable array field; see `damjax.fields`). None (default)
@@ -82,6 +88,7 @@ class PSTParams(eqx.Module):
     mcc_m: Any = 0.3
     mcc_beta: Any = 1.2
     mcc_xi: Any = 0.0
+    slab_fracture_energy: Any = math.inf
     strength_profile: Any = None
     slope_profile: Any = None
 
@@ -161,6 +168,7 @@ PARAM_RULES: dict[str, tuple[Any, str]] = {
     "mcc_m": (_pos, "(0, inf)"),
     "mcc_beta": (_pos, "(0, inf)"),
     "mcc_xi": (_nonneg, "[0, inf)"),
+    "slab_fracture_energy": (lambda v: v > 0, "(0, inf] J/m^2"),
 }
 
 SETUP_RULES: dict[str, tuple[Any, str]] = {

@@ -111,7 +111,11 @@ def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> M
     m = problem.model
     dt = m.p0_init.dtype
     p0 = mcc.p0_from_tensile_strength(
-        jnp.asarray(tensile_strength, dt), m.mcc_m, m.mcc_beta, problem.setup.p0_rule
+        jnp.asarray(tensile_strength, dt),
+        m.mcc_m,
+        m.mcc_beta,
+        problem.setup.p0_rule,
+        problem.setup.mcc_invariants,
     )
     delta = jnp.asarray(softening, dt)
     _, u_res = weak_layer.critical_displacements(m.tau_peak, m.stiffness, delta)

@@ -179,3 +179,53 @@ def test_one_band_is_one_fracture():
     fr = diagnostics.slab_fractures(x, opening, t, threshold=0.01, gap=1.0)
     assert [round(f["x_m"]) for f in fr] == [20, 35]
     assert [f["t_s"] for f in fr] == [0.4, 0.7]
+
+
+@pytest.mark.parametrize("inv", ["3d", "plane"])
+def test_crack_band_dissipates_the_fracture_energy_on_any_band_width(inv):
+    # a band of width dx pulled in uniaxial tension until it is stress-free, with p0
+    # softened explicitly from the previous increment's opening (as in the step): the
+    # plastic work per unit crack area, dx * int sigma d eps_p, is G_f whatever dx is,
+    # while the perfectly plastic band's grows with dx
+    p0_init = mcc.p0_from_tensile_strength(4000.0, M, BETA, "paper", inv)
+    sigma_y = float(mcc.uniaxial_strengths(p0_init, M, BETA, inv)[0])
+    g_f = 0.3
+    w_c = mcc.crack_band_opening(p0_init, g_f, M, BETA, inv)
+    assert float(w_c) == pytest.approx(g_f / sigma_y, rel=1e-6)
+
+    def dissipation(dx, w_c, n=4000, eps_end=None):
+        if eps_end is None:  # twelve w_c of opening: the band is stress-free
+            eps_end = 12.0 * g_f / sigma_y / dx + 2.0 * sigma_y / E
+        eps_p = opening = work = 0.0
+        for eps in np.linspace(0.0, eps_end, n)[1:]:
+            p0 = p0_init * mcc.crack_band_factor(opening, dx, w_c)
+            sig, dxx, _ = mcc.return_map_uniaxial(E * (eps - eps_p), p0, M, BETA, E, inv)
+            sig, dxx = float(sig), float(dxx)
+            eps_p += dxx
+            opening += max(dxx, 0.0)
+            work += sig * dxx
+        return work * dx, sig
+
+    for dx in (0.02, 0.2):
+        g, sig_end = dissipation(dx, w_c)
+        assert g == pytest.approx(g_f, rel=0.02), dx
+        assert abs(sig_end) < 0.01 * sigma_y  # the band is stress-free at the end
+    # no softening (G_f = inf): the factor is 1, the band keeps its strength and, pulled
+    # to the same strain, dissipates in proportion to its width
+    w_inf = mcc.crack_band_opening(p0_init, jnp.inf, M, BETA, inv)
+    assert float(mcc.crack_band_factor(0.5, 0.1, w_inf)) == 1.0
+    g1, s1 = dissipation(0.02, w_inf, 400, eps_end=0.05)
+    g2, _ = dissipation(0.2, w_inf, 400, eps_end=0.05)
+    assert s1 == pytest.approx(sigma_y, rel=1e-4)
+    assert g2 == pytest.approx(10.0 * g1, rel=1e-3)
+
+
+def test_crack_band_gradient_is_finite_without_softening():
+    # d/dG_f at G_f = inf, and d/dp0 with the softening on, are finite
+    def f(g_f, p0):
+        w_c = mcc.crack_band_opening(p0, g_f, M, BETA)
+        return p0 * mcc.crack_band_factor(0.01, 0.1, w_c)
+
+    for g_f in (jnp.inf, 0.3):
+        grads = jax.grad(f, argnums=(0, 1))(jnp.asarray(g_f), jnp.asarray(2000.0))
+        assert all(np.isfinite(float(g)) for g in grads)

@@ -26,6 +26,8 @@ BAD_PARAMS = [
     ("saw_speed", -6.0, "--saw-speed"),
     ("tensile_strength", -1.0, "--tensile-strength"),
     ("wl_thickness", math.nan, "--wl-thickness"),
+    ("slab_fracture_energy", 0.0, "--slab-fracture-energy"),
+    ("slab_fracture_energy", math.nan, "--slab-fracture-energy"),
 ]
 BAD_SETUP = [
     ("length", 0.0, "--length"),

@@ -61,6 +61,7 @@ class Model(eqx.Module):
     mcc_m: Any
     mcc_beta: Any
     mcc_xi: Any
+    fracture_energy: Any  # slab G_f [J/m^2] of the crack-band softening (inf: none)
     # gravity [m/s^2]: slope-parallel components (dim, n) and the normal component (n,)
     g_tangent: Any
     g_normal: Any

@@ -95,10 +95,30 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
     return eps, sigma, tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True)), d_open
 
 
+def crack_band_opening(model: Model) -> Any:
+    """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none)."""
+    return mcc.crack_band_opening(
+        model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
+    )
+
+
+def fracture_strain(model: Model) -> Any:
+    """Opening strain that marks a slab fracture: FRACTURE_STRAIN for a perfectly plastic
+    slab; with crack-band softening, the opening at which the band keeps 5 % of its
+    strength (w = 3 w_c), the same crack opening on every grid."""
+    w_c = crack_band_opening(model)
+    return jnp.where(jnp.isfinite(w_c), 3.0 * w_c / model.dx, FRACTURE_STRAIN)
+
+
 def _p0(model: Model, state: State) -> Any:
-    """Current consolidation pressure (explicit softening with volumetric plastic strain)."""
+    """Current consolidation pressure, explicit in the previous step's plastic strains:
+    SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
+    the band's opening (G_f; band width dx)."""
     bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    return mcc.softened_p0(model.p0_init, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk)
+    band = mcc.crack_band_factor(state.opening, model.dx, crack_band_opening(model))
+    return mcc.softened_p0(
+        model.p0_init * band, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk
+    )
 
 
 def step(model: Model, state: State) -> State:
@@ -181,8 +201,9 @@ def step(model: Model, state: State) -> State:
         model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True))
     )
     opening = state.opening + d_open
+    frac = fracture_strain(model)
     t_fracture = jnp.where(
-        (opening >= FRACTURE_STRAIN) & ~(state.opening >= FRACTURE_STRAIN),
+        (opening >= frac) & ~(state.opening >= frac),
         state.time + dt,
         state.t_fracture,
     )

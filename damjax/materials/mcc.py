@@ -126,6 +126,30 @@ def softened_p0(p0_init: Any, eps_pv: Any, xi: Any, bulk: Any) -> Any:
     return jnp.where(finite, jnp.maximum(p0, 1e-2), jnp.inf)
 
 
+def crack_band_opening(
+    p0_init: Any, fracture_energy: Any, M: Any, beta: Any, invariants: str = "3d"
+) -> Any:
+    """Characteristic opening w_c = G_f / sigma_y [m] of the crack-band softening
+    (`crack_band_factor`); inf where G_f or p0 is infinite (no softening)."""
+    finite = jnp.isfinite(p0_init) & jnp.isfinite(fracture_energy)
+    sigma_y = uniaxial_strengths(jnp.where(finite, p0_init, 1.0), M, beta, invariants)[0]
+    return jnp.where(finite, jnp.where(finite, fracture_energy, 1.0) / sigma_y, jnp.inf)
+
+
+def crack_band_factor(opening: Any, band_width: Any, w_c: Any) -> Any:
+    """Crack-band softening of p0 (Bazant & Oh 1983): the factor exp(-w / w_c) [-].
+
+    A perfectly plastic slab localises its tensile fracture in one cell, so the work a
+    fracture dissipates, and with it when the slab lets go, scales with the grid spacing.
+    Here the band's opening displacement w = ``opening`` x ``band_width`` [m] (the
+    accumulated tensile plastic strain times the band width, the grid spacing) softens
+    p0, hence the uniaxial tensile yield stress sigma_y, as sigma_y exp(-w / w_c) with
+    w_c = G_f / sigma_y (`crack_band_opening`): a fracture then dissipates G_f [J/m^2] per
+    unit crack area (slab thickness x crack length) on any grid. w_c = inf gives 1.
+    """
+    return jnp.exp(-opening * band_width / w_c)
+
+
 def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any, invariants: str) -> Any:
     """d eps_yy^p / d eps_xx^p of associative flow at the uniaxial state sigma_xx = sig."""
     alpha, gamma, p_c, _ = _ellipse(p0, M, beta, invariants)

@@ -26,8 +26,8 @@ import numpy as np
 from damjax import theory
 from damjax.config import G_ACC, PSTParams, PSTSetup, is_plastic, validate
 from damjax.core.loop import integrate, integrate_pure
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State, zero_components
-from damjax.core.step import column_height
+from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
+from damjax.core.step import column_height, fracture_strain
 from damjax.materials import mcc, weak_layer
 
 SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
@@ -191,6 +191,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
+        fracture_energy=f(params.slab_fracture_energy),
         g_tangent=g_t,
         g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
         stiffness=K,
@@ -363,7 +364,7 @@ def finish(
     opening = np.asarray(final.opening)
     wl_shear = np.asarray(weak_layer_shear(model, final))
     fractures = diagnostics.slab_fractures(
-        x_ref, opening, np.asarray(final.t_fracture), FRACTURE_STRAIN, FRACTURE_GAP
+        x_ref, opening, np.asarray(final.t_fracture), float(fracture_strain(model)), FRACTURE_GAP
     )
     if layout.dim == 2:  # report the strip's average per x
         x_all = x_ref

@@ -28,8 +28,8 @@ import numpy as np
 from damjax import theory
 from damjax.config import G_ACC, PSTParams, param_problems
 from damjax.core.loop import integrate
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_STRAIN, Model, State, zero_components
-from damjax.core.step import column_height
+from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
+from damjax.core.step import column_height, fracture_strain
 from damjax.materials import mcc, weak_layer
 from damjax.scenarios.pst import SAW_LEAD
 
@@ -203,6 +203,7 @@ def build(
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
+        fracture_energy=f(params.slab_fracture_energy),
         g_tangent=g_t,
         g_normal=G_ACC * jnp.cos(psi),
         stiffness=K,
@@ -473,7 +474,9 @@ def simulate_slope(
         "release_area_m2": float(broken.sum() * float(model.area0)),
         "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
         "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
-        "slab_fracture_area_m2": float(np.sum(cm(final.opening) >= FRACTURE_STRAIN) * setup.dx**2),
+        "slab_fracture_area_m2": float(
+            np.sum(cm(final.opening) >= float(fracture_strain(model))) * setup.dx**2
+        ),
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,

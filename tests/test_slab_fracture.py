@@ -1,0 +1,110 @@
+"""Slab tensile fracture with crack-band softening: the release does not depend on the grid.
+
+The paper's perfectly plastic MCC slab localises a fracture in one cell, so what a fracture
+costs, and the release area it leaves, changes with dx. `PSTParams.slab_fracture_energy`
+(G_f) softens p0 with the band's opening so that a fracture dissipates G_f per unit area on
+any grid (the material-point check is in test_mcc.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import numpy as np
+import pytest
+
+from damjax import PSTParams, PSTSetup, fields
+from damjax.scenarios.generic_slope import fig12_params
+from damjax.scenarios.pst import simulate_pst
+from damjax.scenarios.slope import SlopeSetup, simulate_slope
+
+L, W = 30.0, 8.0
+
+
+def _release_area(dx: float, fracture_energy: float) -> dict:
+    # the slope calibration benchmark's truth case: planar 35 deg, GRF strength rising
+    # 125 Pa/m up-slope, drawn once on a 0.125 m grid and interpolated to each grid
+    xf, yf = np.arange(0.0, L + 1e-9, 0.125), np.arange(0.0, W + 1e-9, 0.125)
+    tau = np.asarray(
+        fields.grf(
+            jax.random.key(7),
+            (xf.size, yf.size),
+            0.125,
+            mean=1000.0,
+            std=100.0,
+            length_scale=4.0,
+            trend=(125.0, 0.0),
+        )
+    )
+    xc, yc = (np.arange(round(L / dx)) + 0.5) * dx, (np.arange(round(W / dx)) + 0.5) * dx
+    setup = SlopeSetup(
+        length=L,
+        width=W,
+        dx=dx,
+        duration=1.5,
+        start=(2.0, W / 2),
+        particles_per_cell=1,
+        chunk_steps=50,
+    )
+    params = fig12_params(tensile_strength=4000.0, slab_fracture_energy=fracture_energy)
+    res = simulate_slope(
+        params, setup, slope_deg=35.0, tau_peak=fields.map_on_grid(xf, yf, tau, xc, yc)
+    )
+    assert res.summary["fault"] is None
+    return res.summary
+
+
+def test_crack_band_release_area_is_grid_independent():
+    # measured: G_f = 1 J/m^2 releases 57.7 / 56.9 m^2 on dx 0.25 / 0.125 m (and 57.8 /
+    # 58.5 m^2 on 0.125 / 0.0625 m with 2 x 2 particles per cell, benchmarks); the perfectly
+    # plastic slab releases 86.1 / 78.1 m^2 (-9 % per halving, the control below)
+    coarse, fine = _release_area(0.25, 1.0), _release_area(0.125, 1.0)
+    for s in (coarse, fine):
+        assert s["slab_fracture_area_m2"] > 0.0  # the slab did fracture
+        assert s["upslope_arrest_distance_m"] < L - 2.0 - 5.0  # and the crack arrested
+    assert fine["release_area_m2"] == pytest.approx(coarse["release_area_m2"], rel=0.05)
+    assert fine["upslope_arrest_distance_m"] == pytest.approx(
+        coarse["upslope_arrest_distance_m"], abs=0.5
+    )
+    plastic_coarse = _release_area(0.25, math.inf)["release_area_m2"]
+    plastic_fine = _release_area(0.125, math.inf)["release_area_m2"]
+    assert plastic_fine < 0.95 * plastic_coarse
+
+
+def test_infinite_fracture_energy_is_the_perfectly_plastic_slab(small_setup, arresting_params):
+    # G_f = inf must leave the paper's model untouched, bit for bit
+    p = PSTParams(
+        steady_length=arresting_params.steady_length,
+        strength_gradient=arresting_params.strength_gradient,
+        tensile_strength=3000.0,
+    )
+    a = simulate_pst(p, small_setup)
+    b = simulate_pst(dataclasses.replace(p, slab_fracture_energy=math.inf), small_setup)
+    np.testing.assert_array_equal(a.sigma_xx, b.sigma_xx)
+    assert a.summary["slab_fractures"] == b.summary["slab_fractures"]
+    # a finite G_f changes the slab (it softens after yield) but stays finite
+    c = simulate_pst(dataclasses.replace(p, slab_fracture_energy=0.3), small_setup)
+    assert np.all(np.isfinite(c.sigma_xx))
+    assert not np.array_equal(a.sigma_xx, c.sigma_xx)
+
+
+def test_fracture_marker_follows_the_crack_opening():
+    # with crack-band softening a fracture is marked where the band keeps 5 % of its
+    # strength (w = 3 w_c), so the marker threshold on the opening strain scales as 1/dx
+    from damjax.core.state import FRACTURE_STRAIN
+    from damjax.core.step import crack_band_opening, fracture_strain
+    from damjax.scenarios import pst
+
+    out = {}
+    for dx in (0.04, 0.02):
+        setup = PSTSetup(length=5.0, dx=dx, duration=0.01, chunk_steps=10)
+        for g_f in (0.3, math.inf):
+            params = PSTParams(tensile_strength=6000.0, slab_fracture_energy=g_f)
+            model = pst.build(params, setup, pst.make_layout(params, setup))[0]
+            out[dx, g_f] = float(fracture_strain(model))
+            if math.isfinite(g_f):
+                assert out[dx, g_f] * dx == pytest.approx(3.0 * float(crack_band_opening(model)))
+    assert out[0.04, math.inf] == out[0.02, math.inf] == pytest.approx(FRACTURE_STRAIN)
+    assert out[0.02, 0.3] == pytest.approx(2.0 * out[0.04, 0.3])
