@@ -136,19 +136,17 @@ def damjax_substep(state: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any, Any
 
     if isinstance(st.w, (tuple, list)):  # rows API: S separate (n,) rows
         S = len(st.w)
-        grid_m = transfer.p2g(st, [st.w[k] * P_MASS for k in range(S)], n_nodes)
-        grid_p = [
-            transfer.p2g(
-                st,
-                [
-                    st.w[k]
-                    * (P_MASS * v[a] + aff[a][0] * st.dpos[k][0] + aff[a][1] * st.dpos[k][1])
-                    for k in range(S)
-                ],
-                n_nodes,
-            )
+        channels = [[st.w[k] * P_MASS for k in range(S)]] + [
+            [
+                st.w[k] * (P_MASS * v[a] + aff[a][0] * st.dpos[k][0] + aff[a][1] * st.dpos[k][1])
+                for k in range(S)
+            ]
             for a in range(2)
         ]
+        if hasattr(transfer, "p2g_channels"):  # mass and momentum in complex pairs
+            grid_m, *grid_p = transfer.p2g_channels(st, channels, n_nodes)
+        else:
+            grid_m, *grid_p = [transfer.p2g(st, c, n_nodes) for c in channels]
         gx, gy = _grid_update(grid_m, *grid_p)
         vs = [transfer.g2p(st, gx), transfer.g2p(st, gy)]  # 2 x S x (n,)
         v_rows, C_rows = [], []

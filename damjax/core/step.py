@@ -149,9 +149,8 @@ def step(model: Model, state: State) -> State:
     v_star = state.v + dt * acc
     n_nodes = model.n_nodes
     S = len(st.w)
-    w_m = [st.w[k] * m for k in range(S)]
-    grid_mass = transfer.p2g(st, w_m, n_nodes)
-    grid_mom = []
+    mass_rows = [st.w[k] * m for k in range(S)]
+    mom_rows = []
     for a in range(dim):
         mv = m * v_star[a]
         rows = []
@@ -160,9 +159,12 @@ def step(model: Model, state: State) -> State:
             for b in range(dim):
                 q = q + affine[a][b] * st.dpos[k][b]
             rows.append(st.w[k] * q)
-        grid_mom.append(transfer.p2g(st, rows, n_nodes))
+        mom_rows.append(rows)
     fcap = jnp.where(broken, m * model.friction * model.g_normal, 0.0)
-    grid_cap = transfer.p2g(st, [st.w[k] * fcap for k in range(S)], n_nodes)
+    cap_rows = [st.w[k] * fcap for k in range(S)]
+    # mass, momentum and cap in pairs through complex scatters (half the scatters)
+    grids = transfer.p2g_channels(st, [mass_rows, *mom_rows, cap_rows], n_nodes)
+    grid_mass, grid_mom, grid_cap = grids[0], grids[1 : 1 + dim], grids[1 + dim]
 
     # named for the reverse pass: `integrate_pure` keeps these small grid arrays per step
     # and so does not redo the P2G scatters when it recomputes a step

@@ -10,7 +10,9 @@ Layout (chosen by measurement, see benchmarks/README.md): structure of arrays wi
 particle index last; every grid quantity is a flat 1D array over the nodes; a transfer is
 S scalar scatter-adds (P2G) or gathers (G2P) of n elements per channel, S = 3**dim.
 On XLA:CPU a scalar scatter costs ~1 ns per element, while scatters of row vectors or
-several stencil offsets per index are 3-8x slower.
+several stencil offsets per index are 3-8x slower. A complex scatter costs what a real one
+does, so `p2g_channels` scatters two real channels as the real and imaginary parts of one
+complex row: the sums are the same float additions, done in half the scatters.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import itertools
 from typing import Any, NamedTuple
 
+import jax
 import jax.numpy as jnp
 
 
@@ -94,6 +97,26 @@ def p2g(st: Stencil, rows: Any, n_nodes: int) -> Any:
     for k in range(len(st.idx)):
         grid = grid.at[st.idx[k]].add(rows[k])
     return grid
+
+
+def p2g_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
+    """`p2g` of several channels (each S rows of (n,)): a list of flat grids (n_nodes,).
+
+    Channels go in pairs through one complex scatter-add each (real part the first,
+    imaginary part the second): per element a complex scatter costs about what a real one
+    does on XLA:CPU (10000-particle 1D P2G of mass, momentum and friction cap: 102 us ->
+    63 us per step, benchmarks/README.md), and each part is summed in its own precision,
+    in the same order, so the grids equal `p2g`'s. An odd channel out uses `p2g`.
+    """
+    out = []
+    for c in range(0, len(channels) - 1, 2):
+        a, b = channels[c], channels[c + 1]
+        rows = [jax.lax.complex(a[k], b[k]) for k in range(len(st.idx))]
+        grid = p2g(st, rows, n_nodes)
+        out += [jnp.real(grid), jnp.imag(grid)]
+    if len(channels) % 2:
+        out.append(p2g(st, channels[-1], n_nodes))
+    return out
 
 
 def g2p(st: Stencil, grid: Any) -> tuple[Any, ...]:
