@@ -14,8 +14,7 @@ from damjax.scenarios.slope import SlopeSetup
 L, W, DX = 16.0, 3.0, 0.3
 
 
-@pytest.fixture(scope="module")
-def problem():
+def _problem(fracture_energy: float = math.inf) -> sc.SlopeProblem:
     nx, ny = int(round(L / DX)), int(round(W / DX))
     xc = (np.arange(nx) + 0.5) * DX
     # a PST-like strength: 1 kPa on the first 5 m, then rising 300 Pa/m
@@ -29,10 +28,19 @@ def problem():
         particles_per_cell=1,
         chunk_steps=50,
     )
-    return sc.slope_problem(fig12_params(), setup, slope_deg=35.0, tau_peak=tau)
+    params = fig12_params(slab_fracture_energy=fracture_energy)
+    return sc.slope_problem(params, setup, slope_deg=35.0, tau_peak=tau)
 
 
-def test_release_loss_gradient_is_finite_and_points_to_the_truth(problem):
+@pytest.fixture(scope="module")
+def problem():
+    return _problem()
+
+
+@pytest.mark.parametrize("fracture_energy", [math.inf, 1.0])
+def test_release_loss_gradient_is_finite_and_points_to_the_truth(fracture_energy):
+    # perfectly plastic slab (the paper's) and crack-band softening (G_f = 1 J/m^2)
+    problem = _problem(fracture_energy)
     grid = sc.observation_grid(problem.setup, 1.0)
     truth = sc.damage_map(problem, 4000.0, 1.0, grid)
     observed = (np.asarray(truth) > 0.5).astype(float)
