@@ -179,7 +179,8 @@ def grf(
     negative ones, which the padding keeps at rounding level, are set to zero).
 
     The sample is a deterministic, differentiable function of (mean, trend, std,
-    length_scale, angle_deg) for a fixed key: the same key always gives the same field, and
+    length_scale, angle_deg) for a fixed key: the same key always gives the same field (in
+    float32 and float64 alike, to rounding: the white noise is drawn in float32), and
     `jax.grad` of a statistic of the field with respect to these parameters is finite. It is
     jittable with `shape`, `dx`, `model`, `floor` and `embed_shape` static; when
     `length_scale` is traced, pass `embed_shape`. Draw many samples with
@@ -326,7 +327,10 @@ def _grf(
     cut = 16.0 * jnp.finfo(eig.dtype).eps * jax.lax.stop_gradient(jnp.max(eig))
     pos = eig > cut
     amplitude = jnp.where(pos, jnp.sqrt(jnp.where(pos, eig, 1.0) / n_embed), 0.0)
-    noise = jax.random.normal(key, (2, *embed_shape), dtype)
+    # white noise drawn in float32 whatever the precision: a float64 draw is a different
+    # sample, so the same seed would give another field once jax_enable_x64 is on (a
+    # float64 run, or any earlier call in the session that enabled it)
+    noise = jax.random.normal(key, (2, *embed_shape), jnp.float32).astype(dtype)
     z = jnp.real(jnp.fft.fftn(amplitude * (noise[0] + 1j * noise[1])))
     z = z[tuple(slice(0, n) for n in shape)]
 

@@ -106,6 +106,19 @@ def test_grf_reproducible_with_seed():
     assert float(jnp.max(jnp.abs(a - c))) > 10.0
 
 
+def test_grf_sample_does_not_depend_on_the_precision_mode():
+    # a float64 run (or anything that enables jax_enable_x64 in the session) must see the
+    # same field for the same seed as a float32 run, to rounding (the white noise is drawn
+    # in float32 either way; the float32 transform drops more near-zero eigenvalues)
+    kw = dict(mean=1000.0, std=100.0, length_scale=(8.0, 8.0), trend=(20.0, 0.0))
+    a = np.asarray(fields.grf(jax.random.key(3), (40, 50), 0.5, **kw), dtype=float)
+    with jax.enable_x64(True):
+        b = np.asarray(fields.grf(jax.random.key(3), (40, 50), 0.5, **kw))
+    assert b.dtype == np.float64
+    assert np.max(np.abs(a - b)) < 2.0  # Pa, against a std of 100 Pa
+    assert np.corrcoef(a.ravel(), b.ravel())[0, 1] > 0.9999
+
+
 def test_grf_gradients_are_finite_and_match_finite_differences():
     """d var(field) / d (std, l) by jax.grad agrees with central differences (float64)."""
     with jax.enable_x64(True):
