@@ -351,11 +351,12 @@ _SLOPE_KEYS = (
 )
 
 
-def slope_row(case_name: str, case) -> dict:
-    """One JSON row of a generic-slope run (`damjax.scenarios.generic_slope`)."""
+def slope_row(case_name: str, case, params=None) -> dict:
+    """One JSON row of a generic-slope run (`damjax.scenarios.generic_slope`); `params`
+    defaults to the paper's Fig. 12 slab (`fig12_params`)."""
     from damjax.scenarios.generic_slope import run_generic_slope
 
-    s = run_generic_slope(case).summary
+    s = run_generic_slope(case, params).summary
     return dict(
         case=case_name,
         n_particles=s["n_particles"],

@@ -86,12 +86,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 
 import numpy as np
 
 from benchmarks.cases import emit, slope_row
-from damjax.scenarios.generic_slope import GenericSlopeCase
+from damjax.scenarios.generic_slope import GenericSlopeCase, fig12_params
 
 
 def main(argv: list[str]) -> int:
@@ -110,6 +111,12 @@ def main(argv: list[str]) -> int:
         type=float,
         default=None,
         help="grid spacing the GRF is drawn on [m] (default: dx; fix it to compare grids)",
+    )
+    ap.add_argument(
+        "--fracture-energy",
+        type=float,
+        default=math.inf,
+        help="slab fracture energy G_f [J/m^2] (default inf: the paper's plastic slab)",
     )
     ap.add_argument("--no-controls", action="store_true", help="skip the two controls")
     ap.add_argument("--only", default="", help="comma-separated run names (seed0,...,planar)")
@@ -132,10 +139,13 @@ def main(argv: list[str]) -> int:
     if a.only:
         keep = set(a.only.split(","))
         runs = [(n, c) for n, c in runs if n in keep]
+    params = fig12_params(slab_fracture_energy=a.fracture_energy)
     rows = []
     for name, case in runs:
         row = dict(
-            slope_row("slope_acceptance", case),
+            slope_row("slope_acceptance", case, params),
+            # JSON has no infinity: null is the perfectly plastic slab
+            slab_fracture_energy=a.fracture_energy if math.isfinite(a.fracture_energy) else None,
             run=name,
             seed=case.seed,
             trend=case.trend,

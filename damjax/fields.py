@@ -379,7 +379,7 @@ class GRFFit:
         neg_log_likelihood: the minimised Gaussian negative log-likelihood of the map
             values (constants included, for comparing models) [-].
         n_points: number of map values used (NaNs dropped).
-        n_iterations: L-BFGS iterations taken.
+        n_iterations: L-BFGS iterations taken, summed over the starts.
         converged: whether the gradient norm fell below `tol` (False: the iteration cap
             was reached or the line search failed; check the parameters).
     """
@@ -417,7 +417,7 @@ def fit_grf(
     model: CovarianceModel = "gaussian",
     angle_deg: float = 0.0,
     isotropic: bool = False,
-    length_scale0: float | None = None,
+    length_scale0: float | Sequence[float] | None = None,
     nugget: float | None = None,
     max_iterations: int = 200,
     tol: float = 1e-6,
@@ -438,6 +438,12 @@ def fit_grf(
     (the likelihood is then very sharp and the variance poorly determined); measured maps
     carry noise, which the fitted nugget absorbs.
 
+    The likelihood can have more than one local maximum in the correlation length (the
+    shipped synthetic map, 25 x 16 nodes, has one at l = 8.7 m, std 254 Pa, besides the
+    global one at l = 7.9 m, std 86 Pa). So the search starts from several lengths and
+    keeps the best: by default 4, at 1/16, 1/8, 1/4 and 1/2 of the map size (the same
+    compiled search runs once per start).
+
     Args:
         x, y: coordinates of the map values [m], arrays of the shape of `tau` (e.g. a
             meshgrid with ``indexing="ij"``, or scattered points).
@@ -445,7 +451,8 @@ def fit_grf(
         model: covariance model, ``"gaussian"`` or ``"exponential"``.
         angle_deg: orientation of the principal axes [deg], held fixed.
         isotropic: fit one correlation length for both axes.
-        length_scale0: initial correlation length [m] (default: a fifth of the map size).
+        length_scale0: initial correlation length(s) [m]: one start or a sequence of
+            starts (default: 1/16, 1/8, 1/4 and 1/2 of the map size).
         nugget: fixed noise-to-field variance ratio [-]; None (default) fits it (from
             1e-8 up: a floor that keeps the covariance of a smooth field invertible).
         max_iterations: L-BFGS iteration cap.
@@ -472,9 +479,16 @@ def fit_grf(
     xm, ym, tm, ts = x.mean(), y.mean(), t.mean(), t.std()
     ts = ts if ts > 0 else 1.0
     extent = max(np.ptp(x), np.ptp(y), 1e-12)
-    l0 = length_scale0 if length_scale0 is not None else extent / 5.0
+    if length_scale0 is None:
+        starts = extent * np.array([1 / 16, 1 / 8, 1 / 4, 1 / 2])
+    else:
+        starts = np.atleast_1d(np.asarray(length_scale0, dtype=float)).ravel()
+        if starts.size == 0 or not np.all(np.isfinite(starts) & (starts > 0)):
+            raise ValueError(
+                f"fit_grf: length_scale0={length_scale0!r} must be > 0 [m] (one value or a "
+                "sequence of starting lengths)"
+            )
     n_len = 1 if isotropic else 2
-    theta0 = np.concatenate([np.full(n_len, np.log(l0)), [np.log(1e-2)]])
 
     # lengths stay within [1e-3, 10] x map size (beyond it they are not identifiable)
     bounds = (float(np.log(1e-3 * extent)), float(np.log(10.0 * extent)))
@@ -489,14 +503,28 @@ def fit_grf(
             jnp.asarray(np.nan if nugget is None else float(nugget)),
             jnp.asarray(bounds),
         )
-        theta, value, beta, var, ratio, count, converged = _ml_search(
-            jnp.asarray(theta0),
-            data,
-            jnp.asarray(float(tol)),
-            model=model,
-            n_len=n_len,
-            max_iterations=max_iterations,
-        )
+        best = None
+        count = 0
+        for l0 in starts:
+            theta0 = np.concatenate([np.full(n_len, np.log(l0)), [np.log(1e-2)]])
+            found = _ml_search(
+                jnp.asarray(theta0),
+                data,
+                jnp.asarray(float(tol)),
+                model=model,
+                n_len=n_len,
+                max_iterations=max_iterations,
+            )
+            count += int(found[5])
+            # a start whose value is not finite (failed factorisations) never wins
+            if np.isfinite(float(found[1])) and (best is None or float(found[1]) < float(best[1])):
+                best = found
+        if best is None:
+            raise RuntimeError(
+                "fit_grf: the likelihood could not be evaluated from any starting length "
+                f"({', '.join(f'{v:.3g}' for v in starts)} m); try other length_scale0"
+            )
+        theta, value, beta, var, ratio, _, converged = best
         ls = np.broadcast_to(np.exp(np.clip(np.asarray(theta[:n_len]), *bounds)), (2,))
         beta = np.asarray(beta, dtype=float)
         var, ratio, value = float(var), float(ratio), float(value)
