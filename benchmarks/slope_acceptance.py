@@ -79,6 +79,16 @@ E 4 MPa, tau_p 1 kPa then +20 Pa/m from the start, `damjax pst --strength-gradie
 41.7 m from the start after one slab fracture; with 1240 Pa at the start (the expected
 strength 12 m above the lower edge of a field rising from 1 kPa there, this case's
 earlier setting, which gave 21-30 m from the start on a 50 m long slope) 28.1 m (dx 0.04).
+
+With a crack-band slab (`--fracture-energy 1.0`, G_f = 1 J/m^2, stop 14, 2-core Intel Xeon;
+rows in `slope_acceptance_results_gf1.jsonl`) the slab breaks earlier and the up-slope
+arrests come *closer* to the start, not farther: 32.2 / 30.0 / 27.2 / 36.2 / 37.0 m
+(positions 39.9-49.1 m, mean 32.5, std 3.7 m; 0 of 5 in 40-50 m); the front was still
+failing within 0.3 s of the end in seeds 0, 1 and 3 (last up-slope failure 2.7-2.97 s of 3 s).
+Controls: no trend runs to the top (47.8 m), the planar slope with the trend now stops at
+33.8 m. Peak cross-slope speeds 0.84-0.93 c_s below the up-slope 1.08-1.30 c_s in every seed.
+55-79 s per run (the CPU was shared). The paper's plastic slab (the default) stays the
+acceptance configuration.
 """
 
 from __future__ import annotations
