@@ -148,7 +148,10 @@ def damjax_substep(state: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any, Any
         else:
             grid_m, *grid_p = [transfer.p2g(st, c, n_nodes) for c in channels]
         gx, gy = _grid_update(grid_m, *grid_p)
-        vs = [transfer.g2p(st, gx), transfer.g2p(st, gy)]  # 2 x S x (n,)
+        if hasattr(transfer, "g2p_channels"):  # vx and vy in one complex gather per row
+            vs = transfer.g2p_channels(st, [gx, gy])  # 2 x S x (n,)
+        else:
+            vs = [transfer.g2p(st, gx), transfer.g2p(st, gy)]
         v_rows, C_rows = [], []
         for a in range(2):
             wv = [st.w[k] * vs[a][k] for k in range(S)]
