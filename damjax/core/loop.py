@@ -45,13 +45,32 @@ def _signature(tree: Any) -> Any:
     return treedef, tuple((np.shape(x), str(getattr(x, "dtype", type(x)))) for x in leaves)
 
 
+def _cpu_options() -> dict[str, Any]:
+    """XLA:CPU options for the chunk: 512-bit vectors where the CPU has AVX-512 (LLVM's
+    default prefers 256; measured on a 2-core Xeon: 1D baseline step 180 -> 169 us)."""
+    if _HAS_AVX512 is None or jax.default_backend() != "cpu":
+        return {}
+    return {"xla_cpu_prefer_vector_width": 512} if _HAS_AVX512 else {}
+
+
+def _avx512() -> bool | None:
+    try:
+        with open("/proc/cpuinfo") as f:
+            return any(line.startswith("flags") and " avx512f" in line for line in f)
+    except OSError:  # not Linux: leave XLA's default
+        return None
+
+
+_HAS_AVX512 = _avx512()
+
+
 def compile_chunk(model: Model, state: State, n_steps: int) -> tuple[Any, float]:
     """Ahead-of-time compiled chunk and the compile time [s] (0 when cached)."""
     key = (_signature((model, state)), n_steps)
     if key in _compiled:
         return _compiled[key], 0.0
     t0 = _time.perf_counter()
-    exe = _run_chunk_jit.lower(model, state, n_steps).compile()
+    exe = _run_chunk_jit.lower(model, state, n_steps).compile(compiler_options=_cpu_options())
     dt = _time.perf_counter() - t0
     _compiled[key] = exe
     return exe, dt
