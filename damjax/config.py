@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import warnings
 from typing import Any
 
@@ -344,6 +345,45 @@ def validate(params: PSTParams, setup: PSTSetup) -> None:
             f"dx = {setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip stress "
             "concentration is under-resolved; results may depend on dx",
             stacklevel=3,
+        )
+
+
+# bytes per particle and float of a run: ~60 particle rows live in a step (state, model,
+# the step's temporaries, the donated copy), plus the per-chunk snapshots kept on the host
+_ROWS_PER_PARTICLE = 64
+_SNAPSHOT_ROWS = 8
+
+
+def _physical_memory() -> int | None:
+    """Total physical memory [bytes], None where the OS does not say."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def check_problem_size(
+    n_particles: int, n_nodes: int, n_chunks: int, itemsize: int, fields: str
+) -> None:
+    """Raise ValueError when a run cannot fit in this machine's memory.
+
+    A generous estimate (~64 particle-sized rows in a step plus 8 per stored snapshot) is
+    compared with the total physical memory, so that an absurd size (a 1e9 m PST) fails at
+    once with a message naming the fields, not with an allocation traceback from numpy or
+    XLA. `fields`: the inputs that set the size, e.g. "length (--length) and dx (--dx)".
+    """
+    total = _physical_memory()
+    if total is None:
+        return
+    need = itemsize * (
+        n_particles * (_ROWS_PER_PARTICLE + _SNAPSHOT_ROWS * max(1, n_chunks)) + 8 * n_nodes
+    )
+    if need > total:
+        raise ValueError(
+            f"{fields} give {n_particles:.3g} particles on {n_nodes:.3g} grid nodes over "
+            f"{n_chunks} chunks: ~{need / 2**30:.3g} GiB, more than this machine's "
+            f"{total / 2**30:.3g} GiB of memory; use a coarser dx, a smaller domain, a "
+            "shorter duration or larger chunk_steps"
         )
 
 

@@ -69,6 +69,22 @@ def test_dx_must_resolve_the_elastic_length():
     assert any("Lambda/5" in str(w.message) for w in caught)
 
 
+def test_a_run_too_large_for_memory_fails_at_once_naming_the_fields(capsys):
+    """A 1e9 m PST is rejected before any allocation, with the fields that set its size
+    (it used to end in a numpy allocation traceback)."""
+    with pytest.raises(ValueError, match=r"--length.*GiB.*memory"):
+        simulate_pst(PSTParams(), PSTSetup(length=1.0e9))
+    assert main(["pst", "--length", "1e9"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "--length" in err and "coarser dx" in err
+    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+
+    with pytest.raises(ValueError, match="slope.*GiB"):
+        simulate_slope(
+            PSTParams(), SlopeSetup(length=1.0e5, width=1.0e5, dx=0.1, start=(10.0, 10.0))
+        )
+
+
 def test_inconsistent_values_are_rejected():
     with pytest.raises(ValueError, match="steady_length"):
         simulate_pst(PSTParams(steady_length=30.0), PSTSetup(length=20.0, dx=0.05))

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax.config import G_ACC, PSTParams, PSTSetup, is_plastic, validate
+from damjax.config import G_ACC, PSTParams, PSTSetup, check_problem_size, is_plastic, validate
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
 from damjax.core.step import column_height, fracture_strain
@@ -88,7 +88,9 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
     chunk = int(setup.chunk_steps)
     n_chunks = max(1, int(math.ceil(setup.duration / dt_max / chunk)))
     plastic = is_plastic(params) is not False
+    itemsize = np.dtype(setup.dtype).itemsize
     if setup.dim == 1:
+        check_problem_size(n_cells * ppc, nx, n_chunks, itemsize, _SIZE_FIELDS)
         return Layout(1, (nx,), (False,), pad, n_cells * ppc, n_chunks, chunk, plastic)
     if setup.lateral == "constrained":
         ny = 3
@@ -96,7 +98,12 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
     else:
         n_y = max(1, int(round(setup.width / dx)))
         shape, periodic = (nx, n_y + 8), (False, False)
-    return Layout(2, shape, periodic, pad, n_cells * ppc * n_y * ppc, n_chunks, chunk, plastic)
+    n = n_cells * ppc * n_y * ppc
+    check_problem_size(n, shape[0] * shape[1], n_chunks, itemsize, _SIZE_FIELDS + ", width")
+    return Layout(2, shape, periodic, pad, n, n_chunks, chunk, plastic)
+
+
+_SIZE_FIELDS = "length (--length), dx (--dx), duration (--duration), particles_per_cell"
 
 
 def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:

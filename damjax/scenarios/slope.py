@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax.config import G_ACC, PSTParams, param_problems
+from damjax.config import G_ACC, PSTParams, check_problem_size, param_problems
 from damjax.core.loop import integrate
 from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
 from damjax.core.step import column_height, fracture_strain
@@ -122,6 +122,14 @@ def make_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float) -> S
     dt_max = setup.cfl * dx / c
     n_chunks = max(1, int(math.ceil(setup.duration / dt_max / setup.chunk_steps)))
     shape = (pad_x + nx + pad_y, 2 * pad_y + ny)
+    ppc = int(setup.particles_per_cell)
+    check_problem_size(
+        nx * ny * ppc * ppc,
+        shape[0] * shape[1],
+        n_chunks,
+        np.dtype(setup.dtype).itemsize,
+        "length, width, dx, duration and particles_per_cell of the slope",
+    )
     return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, setup.chunk_steps)
 
 
