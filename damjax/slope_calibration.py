@@ -96,7 +96,7 @@ def slope_problem(
     """
     if not math.isfinite(float(params.tensile_strength)):
         raise ValueError("slope_problem: tensile_strength must be finite (elasto-plastic slab)")
-    problems = slope._problems(params, setup, slope_deg, tau_peak)
+    problems = slope._problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
     if setup.dtype == "float64":

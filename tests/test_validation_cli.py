@@ -85,6 +85,35 @@ def test_a_run_too_large_for_memory_fails_at_once_naming_the_fields(capsys):
         )
 
 
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        (dict(particles_per_cell=0), "particles_per_cell"),
+        (dict(chunk_steps=0), "chunk_steps"),
+        (dict(dtype="float16"), "dtype"),
+        (dict(p0_rule="guess"), "p0_rule"),
+    ],
+)
+def test_slope_setup_problems_are_named(kw, match):
+    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+
+    with pytest.raises(ValueError, match=match):
+        simulate_slope(PSTParams(), SlopeSetup(length=10.0, width=10.0, start=(5.0, 5.0), **kw))
+
+
+def test_slope_field_of_the_wrong_shape_is_rejected():
+    """A field that does not cover the release area cell by cell used to be clamped
+    silently at its edge."""
+    import numpy as np
+
+    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+
+    setup = SlopeSetup(length=10.0, width=10.0, dx=0.2, start=(5.0, 5.0))
+    for name in ("slope_deg", "tau_peak", "fall_deg"):
+        with pytest.raises(ValueError, match=rf"{name} field: shape \(7, 3\) must be .*\(50, 50\)"):
+            simulate_slope(PSTParams(), setup, **{name: np.full((7, 3), 35.0)})
+
+
 def test_inconsistent_values_are_rejected():
     with pytest.raises(ValueError, match="steady_length"):
         simulate_pst(PSTParams(steady_length=30.0), PSTSetup(length=20.0, dx=0.05))

@@ -26,7 +26,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax.config import G_ACC, PSTParams, check_problem_size, param_problems
+from damjax.config import (
+    G_ACC,
+    MCC_INVARIANTS,
+    P0_RULES,
+    PSTParams,
+    check_problem_size,
+    param_problems,
+)
 from damjax.core.loop import integrate
 from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
 from damjax.core.step import column_height, fracture_strain
@@ -68,7 +75,9 @@ class SlopeSetup:
     mcc_invariants: str = "3d"
 
 
-def _problems(params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any) -> list[str]:
+def _problems(
+    params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any, fall: Any = 0.0
+) -> list[str]:
     out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
     for name in ("length", "width", "dx", "duration"):
         v = getattr(setup, name)
@@ -76,6 +85,21 @@ def _problems(params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any) -> lis
             out.append(f"{name} = {v!r}: must be in (0, inf)")
     if not 0 < setup.cfl < 1:
         out.append(f"cfl = {setup.cfl!r}: must be in (0, 1)")
+    for name in ("particles_per_cell", "chunk_steps"):
+        v = getattr(setup, name)
+        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
+            out.append(f"{name} = {v!r}: must be an integer >= 1")
+    for name, allowed in (
+        ("dtype", ("float32", "float64")),
+        ("p0_rule", P0_RULES),
+        ("mcc_invariants", MCC_INVARIANTS),
+    ):
+        if getattr(setup, name) not in allowed:
+            out.append(
+                f"{name} = {getattr(setup, name)!r}: must be one of {{{', '.join(allowed)}}}"
+            )
+    if out:  # the grid below needs valid sizes
+        return out
     x0, y0 = setup.start
     if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
         out.append(
@@ -84,11 +108,21 @@ def _problems(params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any) -> lis
     lam = float(theory.elastic_length(params)) if not out else 1.0
     if not out and setup.dx > lam / 2:
         out.append(f"dx = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m")
-    for name, arr, lo, hi in (("slope_deg", slope, 0.0, 90.0), ("tau_peak", tau, 0.0, math.inf)):
+    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
+    for name, arr, lo, hi in (
+        ("slope_deg", slope, 0.0, 90.0),
+        ("tau_peak", tau, 0.0, math.inf),
+        ("fall_deg", fall, -math.inf, math.inf),
+    ):
         if arr is None:
             continue
         a = np.asarray(arr, dtype=float)
-        if a.ndim not in (0, 2) or not np.all(
+        if a.ndim == 2 and a.shape != cells:
+            out.append(
+                f"{name} field: shape {a.shape} must be (nx, ny) = {cells}, the cells of "
+                f"length {setup.length} m x width {setup.width} m at dx {setup.dx} m"
+            )
+        elif a.ndim not in (0, 2) or not np.all(
             np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))
         ):
             out.append(f"{name} field: must be a finite scalar or a 2D array (nx, ny)")
@@ -423,7 +457,7 @@ def simulate_slope(
     setup = SlopeSetup() if setup is None else setup
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
-    problems = _problems(params, setup, slope_deg, tau_peak)
+    problems = _problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
     if setup.dtype == "float64":
