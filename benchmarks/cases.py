@@ -144,13 +144,19 @@ def pst_grad() -> None:
     import jax
 
     from damjax import PSTParams, PSTSetup
+    from damjax.core.loop import cpu_compiler_options
     from damjax.scenarios import pst
 
     duration = float(os.environ.get("DAMJAX_BENCH_DURATION", "3.0"))
     params, setup = PSTParams(), PSTSetup(duration=duration)
     layout = pst.make_layout(params, setup)
-    fwd = jax.jit(lambda q: pst.arrest_position_smooth(q, setup, layout))
-    grad = jax.jit(jax.value_and_grad(lambda q: pst.arrest_position_smooth(q, setup, layout)))
+    # both with the options damjax compiles its own loop with (as a user would pass them)
+    opts = cpu_compiler_options()
+    fwd = jax.jit(lambda q: pst.arrest_position_smooth(q, setup, layout), compiler_options=opts)
+    grad = jax.jit(
+        jax.value_and_grad(lambda q: pst.arrest_position_smooth(q, setup, layout)),
+        compiler_options=opts,
+    )
     t0 = time.perf_counter()
     fwd_c = fwd.lower(params).compile()
     t_cf = time.perf_counter() - t0

@@ -29,6 +29,7 @@ import numpy as np
 import optax
 
 from damjax import theory
+from damjax.core.loop import cpu_compiler_options
 
 
 @dataclasses.dataclass
@@ -211,7 +212,7 @@ def invert(
     def loss(x: Any) -> Any:
         return jnp.sum(((predict(x) - obs) / noise_std) ** 2)
 
-    vg = jax.jit(jax.value_and_grad(loss))
+    vg = jax.jit(jax.value_and_grad(loss), compiler_options=cpu_compiler_options())
     opt = optax.adam(learning_rate)
     x, st = x0, opt.init(x0)
     hist = []

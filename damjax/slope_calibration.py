@@ -40,7 +40,7 @@ import numpy as np
 import optax
 
 from damjax.config import PSTParams
-from damjax.core.loop import integrate_pure
+from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.state import Model, State
 from damjax.diagnostics import smoothstep
 from damjax.materials import mcc, weak_layer
@@ -261,7 +261,7 @@ def loss_and_grad(
         )
         return release_loss(particle_damage(model, final, width), obs_p)
 
-    return jax.jit(jax.value_and_grad(loss))
+    return jax.jit(jax.value_and_grad(loss), compiler_options=cpu_compiler_options())
 
 
 def calibrate_slope(

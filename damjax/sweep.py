@@ -24,7 +24,7 @@ import jax
 import numpy as np
 
 from damjax.config import PROFILE_FIELDS, PSTParams, PSTSetup, validate
-from damjax.core.loop import RunInfo, run_chunk
+from damjax.core.loop import RunInfo, cpu_compiler_options, run_chunk
 from damjax.scenarios import pst
 
 
@@ -119,13 +119,13 @@ def sweep(
         return run_chunk(model, state, layout.chunk_steps)
 
     if batch_size is None or batch_size >= n + pad:
-        chunk_fn = jax.jit(jax.vmap(one_chunk))
+        chunk_fn = jax.jit(jax.vmap(one_chunk), compiler_options=cpu_compiler_options())
     else:
 
         def chunk_fn_impl(models: Any, states: Any) -> tuple[Any, Any]:
             return jax.lax.map(lambda ms: one_chunk(*ms), (models, states), batch_size=batch_size)
 
-        chunk_fn = jax.jit(chunk_fn_impl)
+        chunk_fn = jax.jit(chunk_fn_impl, compiler_options=cpu_compiler_options())
 
     import time
 

@@ -45,9 +45,12 @@ def _signature(tree: Any) -> Any:
     return treedef, tuple((np.shape(x), str(getattr(x, "dtype", type(x)))) for x in leaves)
 
 
-def _cpu_options() -> dict[str, Any]:
-    """XLA:CPU options for the chunk: 512-bit vectors where the CPU has AVX-512 (LLVM's
-    default prefers 256; measured on a 2-core Xeon: 1D baseline step 180 -> 169 us)."""
+def cpu_compiler_options() -> dict[str, Any]:
+    """XLA:CPU options damjax compiles its own executables with (time loop, sweeps,
+    calibration gradients): 512-bit vectors where the CPU has AVX-512 (LLVM's default
+    prefers 256; measured on a 2-core Xeon: 1D baseline step 180 -> 169 us). Pass them to
+    your own ``jax.jit(..., compiler_options=cpu_compiler_options())`` of a damjax run
+    (e.g. a gradient through `integrate_pure`). Empty on other CPUs and backends."""
     if _HAS_AVX512 is None or jax.default_backend() != "cpu":
         return {}
     return {"xla_cpu_prefer_vector_width": 512} if _HAS_AVX512 else {}
@@ -70,7 +73,9 @@ def compile_chunk(model: Model, state: State, n_steps: int) -> tuple[Any, float]
     if key in _compiled:
         return _compiled[key], 0.0
     t0 = _time.perf_counter()
-    exe = _run_chunk_jit.lower(model, state, n_steps).compile(compiler_options=_cpu_options())
+    exe = _run_chunk_jit.lower(model, state, n_steps).compile(
+        compiler_options=cpu_compiler_options()
+    )
     dt = _time.perf_counter() - t0
     _compiled[key] = exe
     return exe, dt
