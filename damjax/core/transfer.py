@@ -13,7 +13,8 @@ On XLA:CPU a scalar scatter costs ~1 ns per element, while scatters of row vecto
 several stencil offsets per index are 3-8x slower. A complex scatter costs what a real one
 does, so `p2g_channels` scatters two real channels as the real and imaginary parts of one
 complex row: the sums are the same float additions, done in half the scatters; likewise
-`g2p_channels` gathers two grid fields in one complex gather.
+`g2p_channels` gathers two grid fields in one complex gather. Under `jax.vmap` (sweeps),
+the scatters and gathers run over all members' grids at once (a batching rule, below).
 """
 
 from __future__ import annotations
