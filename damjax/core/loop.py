@@ -51,17 +51,17 @@ def cpu_compiler_options() -> dict[str, Any]:
     prefers 256; measured on a 2-core Xeon: 1D baseline step 180 -> 169 us). Pass them to
     your own ``jax.jit(..., compiler_options=cpu_compiler_options())`` of a damjax run
     (e.g. a gradient through `integrate_pure`). Empty on other CPUs and backends."""
-    if _HAS_AVX512 is None or jax.default_backend() != "cpu":
+    if not _HAS_AVX512 or jax.default_backend() != "cpu":
         return {}
-    return {"xla_cpu_prefer_vector_width": 512} if _HAS_AVX512 else {}
+    return {"xla_cpu_prefer_vector_width": 512}
 
 
-def _avx512() -> bool | None:
+def _avx512() -> bool:
     try:
         with open("/proc/cpuinfo") as f:
             return any(line.startswith("flags") and " avx512f" in line for line in f)
     except OSError:  # not Linux: leave XLA's default
-        return None
+        return False
 
 
 _HAS_AVX512 = _avx512()
