@@ -431,8 +431,9 @@ def fit_grf(
     searches the log correlation lengths and the log nugget ratio: the same maximum as a
     search over all parameters, reached in a few tens of iterations. The covariance is
     dense (a Cholesky factorisation and an inverse per evaluation, O(n^3) in the number n
-    of map values): measured on 2 busy CPU cores, a 16 x 16 map takes ~10 s (mostly
-    compilation), 32 x 32 ~30 s, 48 x 48 ~80 s, and 64 x 64 some minutes. The fit runs in
+    of map values): measured on 2 quiet CPU cores (Intel Xeon) with the default four
+    starts, a 16 x 16 map takes 2.6 s, 32 x 32 14 s, 48 x 48 58 s, and 64 x 64 some
+    minutes; one start (`length_scale0` a single value) about a quarter. The fit runs in
     float64 whatever jax's default, because the Gaussian covariance of a fine grid is
     ill-conditioned. A noise-free map of a Gaussian-covariance field is a degenerate case
     (the likelihood is then very sharp and the variance poorly determined); measured maps
