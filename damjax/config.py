@@ -15,6 +15,7 @@ import dataclasses
 import math
 import os
 import warnings
+from collections.abc import Iterable
 from typing import Any
 
 import equinox as eqx
@@ -189,8 +190,9 @@ def flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
-def _problem(name: str, value: Any, valid: str) -> str:
-    return f"{name} ({flag(name)}) = {value!r}: must be in {valid}"
+def _problem(name: str, value: Any, valid: str, with_flag: bool = True) -> str:
+    label = f"{name} ({flag(name)})" if with_flag else name
+    return f"{label} = {value!r}: must be in {valid}"
 
 
 def _as_float(value: Any) -> float | None:
@@ -299,30 +301,42 @@ def _as_min(x: Any) -> float:
     return float(np.min(np.asarray(x, dtype=float)))
 
 
-def setup_problems(setup: PSTSetup) -> list[str]:
-    """One line per invalid numerical setting (empty when all are valid)."""
+SETUP_CHOICES: dict[str, tuple[str, ...]] = {
+    "lateral": LATERAL_CONDITIONS,
+    "p0_rule": P0_RULES,
+    "mcc_invariants": MCC_INVARIANTS,
+    "dtype": DTYPES,
+}
+
+
+def field_problems(
+    setup: Any, rules: Iterable[str], choices: Iterable[str], with_flags: bool = True
+) -> list[str]:
+    """One line per invalid numerical setting among `rules` (keys of `SETUP_RULES`) and
+    `choices` (keys of `SETUP_CHOICES`) of any setup object (PST or slope); `with_flags`
+    names the CLI flag next to the field."""
     problems: list[str] = []
-    for name, (ok, valid) in SETUP_RULES.items():
+    for name in rules:
+        ok, valid = SETUP_RULES[name]
         value = getattr(setup, name)
         try:
             v = float(value)
         except (TypeError, ValueError):
-            problems.append(_problem(name, value, valid + " (a number)"))
+            problems.append(_problem(name, value, valid + " (a number)", with_flags))
             continue
         if isinstance(value, bool) or math.isnan(v) or not ok(v):
-            problems.append(_problem(name, value, valid))
-    if setup.lateral not in LATERAL_CONDITIONS:
-        problems.append(
-            _problem("lateral", setup.lateral, "{" + ", ".join(LATERAL_CONDITIONS) + "}")
-        )
-    if setup.p0_rule not in P0_RULES:
-        problems.append(_problem("p0_rule", setup.p0_rule, "{" + ", ".join(P0_RULES) + "}"))
-    if getattr(setup, "mcc_invariants", "3d") not in MCC_INVARIANTS:
-        problems.append(
-            _problem("mcc_invariants", setup.mcc_invariants, "{" + ", ".join(MCC_INVARIANTS) + "}")
-        )
-    if setup.dtype not in DTYPES:
-        problems.append(_problem("dtype", setup.dtype, "{" + ", ".join(DTYPES) + "}"))
+            problems.append(_problem(name, value, valid, with_flags))
+    for name in choices:
+        allowed = SETUP_CHOICES[name]
+        if getattr(setup, name) not in allowed:
+            valid = "{" + ", ".join(allowed) + "}"
+            problems.append(_problem(name, getattr(setup, name), valid, with_flags))
+    return problems
+
+
+def setup_problems(setup: PSTSetup) -> list[str]:
+    """One line per invalid numerical setting (empty when all are valid)."""
+    problems = field_problems(setup, SETUP_RULES, SETUP_CHOICES)
     if not isinstance(setup.controlled, bool):
         problems.append(_problem("controlled", setup.controlled, "{True, False}"))
     return problems

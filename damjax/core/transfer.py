@@ -105,6 +105,11 @@ def stencil(
 # --------------------------------------------------------------------------------------
 
 
+def _batched(x: Any, is_batched: bool, axis_size: int) -> Any:
+    """x with a leading member axis (broadcast when vmap left it unbatched)."""
+    return x if is_batched else jnp.broadcast_to(x, (axis_size, *x.shape))
+
+
 def _member_offsets(axis_size: int, n_nodes: int, ndim: int, dtype: Any) -> Any:
     off = jnp.arange(axis_size, dtype=dtype) * n_nodes
     return jnp.reshape(off, (axis_size,) + (1,) * (ndim - 1))
@@ -119,11 +124,8 @@ def _scatter_add(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any, vals: Any) -> Any:
-        def batched(x: Any, b: bool) -> Any:
-            return x if b else jnp.broadcast_to(x, (axis_size, *x.shape))
-
         grid, idx, vals = (
-            batched(x, b) for x, b in zip((grid, idx, vals), in_batched, strict=True)
+            _batched(x, b, axis_size) for x, b in zip((grid, idx, vals), in_batched, strict=True)
         )
         total = axis_size * n_nodes
         ok = (idx >= 0) & (idx < n_nodes)
@@ -152,8 +154,10 @@ def _take(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any) -> Any:
-        grid = grid if in_batched[0] else jnp.broadcast_to(grid, (axis_size, *grid.shape))
-        idx = idx if in_batched[1] else jnp.broadcast_to(idx, (axis_size, *idx.shape))
+        grid, idx = (
+            _batched(grid, in_batched[0], axis_size),
+            _batched(idx, in_batched[1], axis_size),
+        )
         g = jnp.clip(idx, 0, n_nodes - 1) + _member_offsets(axis_size, n_nodes, idx.ndim, idx.dtype)
         return jnp.take(grid.reshape(-1), g, mode="clip"), True
 

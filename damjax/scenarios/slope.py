@@ -26,14 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax.config import (
-    G_ACC,
-    MCC_INVARIANTS,
-    P0_RULES,
-    PSTParams,
-    check_problem_size,
-    param_problems,
-)
+from damjax.config import G_ACC, PSTParams, check_problem_size, field_problems, param_problems
 from damjax.core.loop import integrate
 from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
 from damjax.core.step import column_height, fracture_strain
@@ -79,27 +72,14 @@ def _problems(
     params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any, fall: Any = 0.0
 ) -> list[str]:
     out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
-    for name in ("length", "width", "dx", "duration"):
-        v = getattr(setup, name)
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            out.append(f"{name} = {v!r}: must be in (0, inf)")
-    if not 0 < setup.cfl < 1:
-        out.append(f"cfl = {setup.cfl!r}: must be in (0, 1)")
-    for name in ("particles_per_cell", "chunk_steps"):
-        v = getattr(setup, name)
-        if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1):
-            out.append(f"{name} = {v!r}: must be an integer >= 1")
-    for name, allowed in (
-        ("dtype", ("float32", "float64")),
-        ("p0_rule", P0_RULES),
-        ("mcc_invariants", MCC_INVARIANTS),
-    ):
-        if getattr(setup, name) not in allowed:
-            out.append(
-                f"{name} = {getattr(setup, name)!r}: must be one of {{{', '.join(allowed)}}}"
-            )
-    if out:  # the grid below needs valid sizes
-        return out
+    setup_out = field_problems(
+        setup,
+        ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps"),
+        ("dtype", "p0_rule", "mcc_invariants"),
+        with_flags=False,
+    )
+    if setup_out:  # the checks below need a valid grid
+        return out + setup_out
     x0, y0 = setup.start
     if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
         out.append(
