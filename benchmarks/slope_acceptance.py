@@ -125,15 +125,24 @@ def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5, help="number of GRF seeds (0, 1, ...)")
     ap.add_argument("--dx", type=float, default=0.2, help="grid spacing [m]")
-    ap.add_argument("--duration", type=float, default=3.0, help="simulated time [s]")
+    ap.add_argument("--duration", type=float, default=4.0, help="simulated time [s]")
     ap.add_argument("--ppc", type=int, default=1, help="particles per cell and dimension")
-    ap.add_argument("--length", type=float, default=60.0, help="up-slope length [m]")
-    ap.add_argument("--width", type=float, default=50.0, help="cross-slope width [m]")
+    ap.add_argument("--length", type=float, default=50.0, help="up-slope length [m]")
+    ap.add_argument("--width", type=float, default=60.0, help="cross-slope width [m]")
     ap.add_argument(
         "--mean-at", type=float, default=None, help="position of the 1 kPa mean strength [m]"
     )
-    ap.add_argument("--toe-length", type=float, default=15.0, help="concave toe length [m]")
-    ap.add_argument("--roll-length", type=float, default=15.0, help="convex roll length [m]")
+    ap.add_argument("--toe-length", type=float, default=10.0, help="concave toe length [m]")
+    ap.add_argument("--roll-length", type=float, default=10.0, help="convex roll length [m]")
+    ap.add_argument("--toe-slope", type=float, default=30.0, help="slope at the lower edge [deg]")
+    ap.add_argument(
+        "--start-window",
+        type=float,
+        nargs=2,
+        default=(2.0, 8.0),
+        metavar=("X_MIN", "X_MAX"),
+        help="x range [m] of the crack start (the weakest spot in it)",
+    )
     ap.add_argument(
         "--field-dx",
         type=float,
@@ -159,6 +168,8 @@ def main(argv: list[str]) -> int:
         field_dx=a.field_dx,
         toe_length=a.toe_length,
         roll_length=a.roll_length,
+        toe_slope_deg=a.toe_slope,
+        start_window=tuple(a.start_window),
     )
     runs = [(f"seed{k}", dataclasses.replace(base, seed=k)) for k in range(a.seeds)]
     if not a.no_controls:

@@ -276,6 +276,14 @@ def grf(
     )
 
 
+def trend_direction(trend_deg: float) -> tuple[float, float]:
+    """Unit vector (ux, uy) of a trend direction [deg, counter-clockwise from +x], with
+    components below 1e-12 set to exactly 0 (so 0 and +-90 deg depend on one axis only)."""
+    a = math.radians(float(trend_deg))
+    ux, uy = math.cos(a), math.sin(a)
+    return (0.0 if abs(ux) < 1e-12 else ux), (0.0 if abs(uy) < 1e-12 else uy)
+
+
 def plateau_trend_field(
     key: Array,
     x: np.ndarray,
@@ -290,13 +298,19 @@ def plateau_trend_field(
     angle_deg: float = 0.0,
     model: CovarianceModel = "gaussian",
     field_dx: float | None = None,
+    trend_deg: float = 0.0,
 ) -> np.ndarray:
     """A slope's weak-layer strength on cell centres x (nx,) by ny columns [Pa] (numpy).
 
-    Expected strength `mean` up to x = `mean_at`, rising `trend` [Pa/m] above it (a PST's
-    L_ss and gradient), plus `std` times a stationary `grf` sample (no trend), clipped from
-    below at `TAU_FLOOR`. ``std = 0``: the expected strength alone. The cells are
-    (i + 1/2) dx apart from 0 in both directions.
+    Expected strength `mean` up to a distance `mean_at` [m], rising `trend` [Pa/m] beyond it
+    (a PST's L_ss and gradient), plus `std` times a stationary `grf` sample (no trend),
+    clipped from below at `TAU_FLOOR`. ``std = 0``: the expected strength alone. The cells
+    are (i + 1/2) dx apart from 0 in both directions.
+
+    The distance is measured along the direction `trend_deg` [deg, counter-clockwise from
+    +x, up-slope] from the edge of the area it starts at: 0 (default) is x, up-slope from
+    the lower edge; 90 is y, across from the y = 0 edge; -90 across from the other edge
+    (y = ny dx) towards y = 0 (paper Fig. 12b: strength rising across the slope).
 
     ``field_dx`` [m]: draw the random part on cells of this size over the same extent and
     interpolate it bilinearly to the cells (None: on the cells themselves). A sample
@@ -304,9 +318,17 @@ def plateau_trend_field(
     the same key then gives the same field on every grid. At most half the shortest
     correlation length.
     """
-    expected = mean + trend * np.maximum(np.asarray(x, dtype=float) - mean_at, 0.0)
+    ux, uy = trend_direction(trend_deg)
+    # distance along u from the area's first edge: (x, y) . u minus its minimum over the area
+    d = (
+        ux * np.asarray(x, dtype=float)[:, None]
+        + uy * ((np.arange(ny) + 0.5) * dx)[None, :]
+        - min(0.0, ux * len(x) * dx)
+        - min(0.0, uy * ny * dx)
+    )
+    expected = mean + trend * np.maximum(d - mean_at, 0.0)
     if std == 0.0:
-        return np.repeat(expected[:, None], ny, axis=1)
+        return np.broadcast_to(expected, (len(x), ny)).copy()
     ls = np.asarray(length_scale, dtype=float)
     fdx = dx if field_dx is None else float(field_dx)
     if field_dx is not None and not (math.isfinite(fdx) and 0.0 < fdx <= 0.5 * float(np.min(ls))):
@@ -333,7 +355,7 @@ def plateau_trend_field(
     if field_dx is not None:
         xf, yf = ((np.arange(n) + 0.5) * fdx for n in shape)
         noise = map_on_grid(xf, yf, noise, x, (np.arange(ny) + 0.5) * dx)
-    return np.maximum(expected[:, None] + noise, TAU_FLOOR)
+    return np.maximum(expected + noise, TAU_FLOOR)
 
 
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))

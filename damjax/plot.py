@@ -10,9 +10,16 @@ from damjax import diagnostics, theory
 
 
 def _plt() -> Any:
+    import os
+    import sys
+
     import matplotlib
 
-    matplotlib.use("Agg", force=False)
+    # a file backend for scripts and the CLI, but never switch a backend already in use:
+    # in Jupyter (MPLBACKEND is set by the kernel, or pyplot already imported) that would
+    # silently turn off inline figures for the rest of the session
+    if "matplotlib.pyplot" not in sys.modules and not os.environ.get("MPLBACKEND"):
+        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

@@ -28,8 +28,8 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     [terrain]                   # optional (default: kind = "plane")
     kind = "plane"              # "plane": slope_deg [deg] (default params.slope_deg)
     # kind = "generic": the paper's Fig. 12 profile (damjax.terrain.generic_slope_angle)
-    #   over the release length: max_slope_deg (35), toe_slope_deg (10),
-    #   top_slope_deg (20), toe_length (15 m), roll_length (15 m)
+    #   over the release length: max_slope_deg (35), toe_slope_deg (30),
+    #   top_slope_deg (20), toe_length (10 m), roll_length (10 m)
     # kind = "dem": file (.asc ESRI ASCII grid, .nc NetCDF, .tif GeoTIFF with rasterio;
     #   relative to the scenario file), origin = [x, y] map coordinates of the release
     #   area's lower (down-slope) left corner [m], upslope = "+x" | "-x" | "+y" | "-y"
@@ -43,7 +43,9 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 # "grf": expected strength mean [Pa] (default
                                 #   params.tau_peak) up to x = mean_at [m] (default 0),
                                 #   rising trend [Pa/m] up-slope above it (as a PST's
-                                #   L_ss), std [Pa],
+                                #   L_ss; trend_deg [deg, counter-clockwise from
+                                #   up-slope] turns it: -90 across from the y = width
+                                #   edge, mean_at then measured from that edge), std [Pa],
                                 #   length_scale [m] (number or [l1, l2]), angle_deg,
                                 #   model ("gaussian" | "exponential"), seed (integer),
                                 #   field_dx [m] (draw the field on this grid and
@@ -55,10 +57,10 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   the area's lower left corner in the map's
                                 #   coordinates (default [0, 0]). The map must cover
                                 #   the area (to half a map spacing).
-    start_window = [12.0, 18.0] # optional, any kind: start the crack at the weakest
+    start_window = [2.0, 8.0]   # optional, any kind: start the crack at the weakest
                                 # (2 m box-smoothed) spot with x in this window and y in
                                 # the middle half of the width (the paper's star),
-                                # instead of setup.start
+                                # instead of setup.start; or [x_min, x_max, y_min, y_max]
 
     [output]                    # as for PSTs: dir, plot, snapshots
 
@@ -94,7 +96,8 @@ _ANY = (lambda v: math.isfinite(v), "(-inf, inf)")
 _ANGLE = (lambda v: 0 < v < 90, "(0, 90)")
 
 # key -> (kind, (check, valid range), unit) per terrain / strength kind; kinds:
-# "float", "int", "str", "pair" (two numbers), "floats" (a number or two numbers)
+# "float", "int", "str", "pair" (two numbers), "window" (two or four numbers),
+# "floats" (a number or two numbers)
 _TERRAIN_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "plane": {"slope_deg": ("float", _ANGLE, "deg")},
     "generic": {
@@ -119,19 +122,20 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "std": ("float", _NONNEG, "Pa"),
         "length_scale": ("floats", _POS, "m"),
         "angle_deg": ("float", _ANY, "deg"),
+        "trend_deg": ("float", _ANY, "deg"),
         "model": ("str", COVARIANCE_MODELS, ""),
         "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
         "field_dx": ("float", _POS, "m"),
     },
     "map": {"file": ("str", None, ""), "origin": ("pair", _ANY, "m")},
 }
-_STRENGTH_COMMON = {"start_window": ("pair", _NONNEG, "m")}
+_STRENGTH_COMMON = {"start_window": ("window", _NONNEG, "m")}
 _GENERIC_DEFAULTS = {
     "max_slope_deg": 35.0,
-    "toe_slope_deg": 10.0,
+    "toe_slope_deg": 30.0,
     "top_slope_deg": 20.0,
-    "toe_length": 15.0,
-    "roll_length": 15.0,
+    "toe_length": 10.0,
+    "roll_length": 10.0,
 }
 _GRF_DEFAULTS = {
     "mean_at": 0.0,
@@ -139,6 +143,7 @@ _GRF_DEFAULTS = {
     "std": 100.0,
     "length_scale": 8.0,
     "angle_deg": 0.0,
+    "trend_deg": 0.0,
     "model": "gaussian",
     "seed": 0,
 }
@@ -218,10 +223,15 @@ def _check_table(
                 what = "a number"
             else:
                 vals = value if isinstance(value, list) else [value]
-                shape_ok = len(vals) == 2 if typ == "pair" else len(vals) in (1, 2)
-                if typ == "pair" and not isinstance(value, list):
+                sizes = {"pair": (2,), "window": (2, 4), "floats": (1, 2)}[typ]
+                shape_ok = len(vals) in sizes
+                if typ != "floats" and not isinstance(value, list):
                     shape_ok = False
-                what = "two numbers [a, b]" if typ == "pair" else "a number or [l1, l2]"
+                what = {
+                    "pair": "two numbers [a, b]",
+                    "window": "[x_min, x_max] or [x_min, x_max, y_min, y_max]",
+                    "floats": "a number or [l1, l2]",
+                }[typ]
             if not shape_ok or not all(_is_number(v) for v in vals):
                 problems.append(f"{name} = {_fmt(value)}: must be {what} in {valid}{u}")
                 continue
@@ -350,12 +360,12 @@ def check(
                 f"[0, {setup.width:g}] m (the release area)"
             )
     else:
-        lo, hi = strength["start_window"]
-        if not lo < hi <= setup.length:
-            problems.append(
-                f"strength.start_window = {_fmt([lo, hi])}: must be [x_min, x_max] with "
-                f"0 <= x_min < x_max <= setup.length = {setup.length:g} m"
-            )
+        from damjax.scenarios.generic_slope import window_problem
+
+        win = strength["start_window"]
+        problem = window_problem(win, setup.length, setup.width)
+        if problem:
+            problems.append(f"strength.start_window = {_fmt(win)}: {problem}")
     from damjax import theory
 
     lam = float(theory.elastic_length(params))
@@ -605,6 +615,7 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
                 angle_deg=float(g["angle_deg"]),
                 model=g["model"],
                 field_dx=None if "field_dx" not in st else float(st["field_dx"]),
+                trend_deg=float(g["trend_deg"]),
             )
         except ValueError as exc:  # field_dx coarser than the correlation allows
             raise _FieldProblem(f"strength.{exc}") from None

@@ -219,10 +219,10 @@ def generic_slope_angle(
     *,
     length: ArrayLike = 50.0,
     max_slope_deg: ArrayLike = 35.0,
-    toe_slope_deg: ArrayLike = 10.0,
+    toe_slope_deg: ArrayLike = 30.0,
     top_slope_deg: ArrayLike = 20.0,
-    toe_length: ArrayLike = 15.0,
-    roll_length: ArrayLike = 15.0,
+    toe_length: ArrayLike = 10.0,
+    roll_length: ArrayLike = 10.0,
 ) -> Array:
     """Slope angle psi(s) of the generic slope along its down-slope profile [deg].
 
@@ -264,10 +264,10 @@ def generic_slope(
     *,
     along_surface: bool = True,
     max_slope_deg: float = 35.0,
-    toe_slope_deg: float = 10.0,
+    toe_slope_deg: float = 30.0,
     top_slope_deg: float = 20.0,
-    toe_length: float = 15.0,
-    roll_length: float = 15.0,
+    toe_length: float = 10.0,
+    roll_length: float = 10.0,
 ) -> Terrain:
     """The paper's generic slope (Fig. 12) as a height field: uniform across, x up-slope.
 

@@ -394,3 +394,33 @@ def test_strength_map_csv_problems_name_the_file(tmp_path):
     )
     with pytest.raises(ValueError, match=r"uneven.csv: column 'x_m' is not evenly spaced"):
         fields.load_strength_map(uneven)
+
+
+def test_plateau_trend_field_follows_its_direction():
+    """trend_deg turns the trend; mean_at is measured from the edge the trend starts at."""
+    dx, nx, ny = 0.5, 20, 30  # a 10 m x 15 m area
+    x = (np.arange(nx) + 0.5) * dx
+    y = (np.arange(ny) + 0.5) * dx
+    kw = dict(mean=1000.0, mean_at=2.0, trend=20.0, std=0.0, length_scale=4.0)
+    key = jax.random.key(0)
+    up = fields.plateau_trend_field(key, x, ny, dx, **kw)
+    np.testing.assert_allclose(up, 1000.0 + 20.0 * np.maximum(x - 2.0, 0.0)[:, None] + 0 * y)
+    # -90 deg: rising from the y = 15 m edge towards y = 0, no x dependence
+    across = fields.plateau_trend_field(key, x, ny, dx, trend_deg=-90.0, **kw)
+    want = 1000.0 + 20.0 * np.maximum(15.0 - y - 2.0, 0.0)
+    np.testing.assert_allclose(across, np.broadcast_to(want, (nx, ny)))
+    # +90 deg: from the y = 0 edge; 180 deg: down-slope from the top edge
+    np.testing.assert_allclose(
+        fields.plateau_trend_field(key, x, ny, dx, trend_deg=90.0, **kw)[0],
+        1000.0 + 20.0 * np.maximum(y - 2.0, 0.0),
+    )
+    np.testing.assert_allclose(
+        fields.plateau_trend_field(key, x, ny, dx, trend_deg=180.0, **kw)[:, 0],
+        1000.0 + 20.0 * np.maximum(10.0 - x - 2.0, 0.0),
+        atol=1e-9,
+    )
+    # with noise the trend is added to the same stationary sample
+    kw["std"] = 50.0
+    noisy = fields.plateau_trend_field(key, x, ny, dx, **kw)
+    noisy_across = fields.plateau_trend_field(key, x, ny, dx, trend_deg=-90.0, **kw)
+    np.testing.assert_allclose(noisy - up, noisy_across - across, atol=1e-6)

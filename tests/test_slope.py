@@ -20,7 +20,13 @@ import pytest
 from damjax import PSTParams, PSTSetup, scenario, slope_scenario, terrain
 from damjax.cli import main
 from damjax.materials import weak_layer
-from damjax.scenarios.generic_slope import GenericSlopeCase, strength_field, weak_spot
+from damjax.scenarios.generic_slope import (
+    FIG12B,
+    GenericSlopeCase,
+    slope_field,
+    strength_field,
+    weak_spot,
+)
 from damjax.scenarios.pst import simulate_pst
 from damjax.scenarios.slope import SlopeSetup, simulate_slope
 
@@ -99,26 +105,38 @@ def test_acceptance_scenario_is_the_issue_5_case():
     scn = scenario.load("slope-generic-50x60", warn=False)
     p, s = scn.params, scn.setup
     assert (p.youngs_modulus, p.tensile_strength, p.softening) == (4.0e6, 4000.0, 1.0)
-    # 50 m across, 60 m along the surface (see damjax.scenarios.generic_slope)
-    assert (s.length, s.width, s.dx, s.duration) == (60.0, 50.0, 0.2, 3.0)
+    # the paper's "50 m (down-slope) by 60 m (cross-slope)"
+    assert (s.length, s.width, s.dx, s.duration) == (50.0, 60.0, 0.2, 4.0)
     assert scn.terrain["kind"] == "generic"
     assert scn.strength["kind"] == "grf" and scn.strength["trend"] == 20.0
     slope, fall, tau, start = slope_scenario.resolve_fields(scn)
-    assert slope.shape == tau.shape == (300, 250) and fall == 0.0
-    assert slope.max() == pytest.approx(35.0, abs=1e-3) and slope[0, 0] < 11.0
-    # 1 kPa up to x = 12 m (where the crack starts, as a PST's L_ss), then +20 Pa/m
-    x = (np.arange(300) + 0.5) * 0.2
-    above = x > 14.0
+    assert slope.shape == tau.shape == (250, 300) and fall == 0.0
+    assert slope.max() == pytest.approx(35.0, abs=1e-3) and 29.9 < slope[0, 0] < 30.1
+    assert slope[-1, 0] < 21.0  # the convex roll
+    # 1 kPa up to x = 2 m (the bottom of the start window, as a PST's L_ss), then +20 Pa/m
+    x = (np.arange(250) + 0.5) * 0.2
+    above = x > 4.0
     trend = np.polyfit(x[above], tau.mean(axis=1)[above], 1)[0]
     assert trend == pytest.approx(20.0, abs=5.0)
-    assert tau[x < 12.0].mean() == pytest.approx(1000.0, abs=60.0)
-    assert 12.0 <= start[0] <= 18.0 and 12.5 <= start[1] <= 37.5
+    assert 2.0 <= start[0] <= 8.0 and 15.0 <= start[1] <= 45.0
     # the TOML and the Python case describe the same field and start
     case = GenericSlopeCase()
     assert np.allclose(strength_field(case), tau, atol=1e-3)
     assert weak_spot(case, tau) == pytest.approx(start)
-    long = scenario.load("slope-generic-50x100", warn=False).setup
-    assert (long.length, long.width) == (100.0, 50.0)
+    assert np.allclose(slope_field(case), slope, atol=1e-4)
+    # Fig. 12b: 50 m down-slope, 100 m across, strength rising across from y = 100 m, the
+    # start near the top right corner; the TOML and FIG12B agree
+    wide = scenario.load("slope-generic-50x100", warn=False)
+    assert (wide.setup.length, wide.setup.width) == (50.0, 100.0)
+    _, _, tau_b, start_b = slope_scenario.resolve_fields(wide)
+    y = (np.arange(500) + 0.5) * 0.2
+    across = np.polyfit(y[y < 96.0], tau_b.mean(axis=0)[y < 96.0], 1)[0]
+    assert across == pytest.approx(-20.0, abs=5.0)
+    along = np.polyfit(x, tau_b.mean(axis=1), 1)[0]
+    assert abs(along) < 5.0
+    assert 34.0 <= start_b[0] <= 40.0 and 92.0 <= start_b[1] <= 98.0
+    assert np.allclose(strength_field(FIG12B), tau_b, atol=1e-3)
+    assert weak_spot(FIG12B, tau_b) == pytest.approx(start_b)
 
 
 def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
@@ -553,3 +571,33 @@ def test_dem_whose_upslope_axis_goes_downhill_is_an_error(tmp_path):
     doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": [1.0, 2.0], "upslope": "+x"}
     with pytest.raises(ValueError, match=r'^terrain.upslope = "\+x": the DEM descends along \+x'):
         quiet_parse(doc, base_dir=tmp_path)
+
+
+def test_start_window_with_a_y_range_and_its_errors():
+    """[strength] start_window takes [x_min, x_max] or [x_min, x_max, y_min, y_max]."""
+    doc = raw("slope-quick")
+    doc["setup"].update(length=20.0, width=12.0, dx=0.25)
+    doc["strength"] = {
+        "kind": "grf",
+        "std": 100.0,
+        "length_scale": 3.0,
+        "seed": 1,
+        "start_window": [3.0, 6.0, 8.0, 11.0],
+    }
+    _, _, tau, start = slope_scenario.resolve_fields(quiet_parse(doc))
+    assert 3.0 <= start[0] <= 6.0 and 8.0 <= start[1] <= 11.0
+    # the weakest 2 m box-smoothed spot of the window, not of the middle half of the width
+    two = copy.deepcopy(doc)
+    two["strength"]["start_window"] = [3.0, 6.0]
+    assert start != pytest.approx(slope_scenario.resolve_fields(quiet_parse(two))[3])
+    for bad, needle in (
+        ([3.0, 6.0, 8.0], "start_window = \\[3.0, 6.0, 8.0\\]: must be \\[x_min, x_max\\] or"),
+        ([3.0, 6.0, 11.0, 8.0], "0 <= y_min < y_max <= width = 12 m"),
+        ([3.0, 6.0, 8.0, 13.0], "0 <= y_min < y_max <= width = 12 m"),
+        ([6.0, 3.0], "0 <= x_min < x_max <= length = 20 m"),
+    ):
+        doc["strength"]["start_window"] = bad
+        with pytest.raises(ValueError, match=needle):
+            quiet_parse(doc)
+    with pytest.raises(ValueError, match="y_min < y_max"):
+        GenericSlopeCase(start_window=(2.0, 8.0, 30.0, 10.0))
