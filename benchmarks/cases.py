@@ -385,7 +385,7 @@ def slope() -> None:
     from damjax.scenarios.generic_slope import GenericSlopeCase
 
     ppc = int(os.environ.get("DAMJAX_BENCH_PPC", "1"))
-    # the timing case: 2 s simulated (the arrest itself needs ~2.5 s, see
+    # the timing case: 2 s simulated (the arrest itself needs up to ~2.8 s, see
     # benchmarks/slope_acceptance.py)
     emit(**slope_row("slope", GenericSlopeCase(particles_per_cell=ppc, duration=2.0)))
 
