@@ -1,6 +1,7 @@
-"""Issue 5 acceptance: the 50 m x 60 m generic slope (paper Fig. 12a) over 5 GRF seeds,
-and the two controls (the same slope without the up-slope trend; a planar 35 deg slope
-with the trend).
+"""Issue 5 acceptance: paper Fig. 12a's generic slope over 5 GRF seeds, and 2 controls.
+
+The 50 m x 60 m generic slope (`damjax.scenarios.generic_slope.FIG12A`) and the two controls
+(the same slope without the up-slope trend; a planar 35 deg slope with the trend).
 
     python -m benchmarks.slope_acceptance            # dx 0.2 m, 4 s, seeds 0-4
     python -m benchmarks.slope_acceptance --ppc 2    # 2 x 2 particles per cell
@@ -174,6 +175,7 @@ import argparse
 import dataclasses
 import json
 import math
+import re
 import sys
 
 import numpy as np
@@ -183,7 +185,10 @@ from damjax.scenarios.generic_slope import GenericSlopeCase, fig12_params
 
 
 def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     ap.add_argument("--seeds", type=int, default=5, help="number of GRF seeds (0, 1, ...)")
     ap.add_argument("--dx", type=float, default=0.2, help="grid spacing [m]")
     ap.add_argument("--duration", type=float, default=4.0, help="simulated time [s]")
@@ -191,7 +196,11 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--length", type=float, default=50.0, help="up-slope length [m]")
     ap.add_argument("--width", type=float, default=60.0, help="cross-slope width [m]")
     ap.add_argument(
-        "--mean-at", type=float, default=None, help="position of the 1 kPa mean strength [m]"
+        "--mean-at",
+        type=float,
+        default=None,
+        help="where the 1 kPa plateau ends and the trend starts [m] (default: the start "
+        "window's lower edge)",
     )
     ap.add_argument("--toe-length", type=float, default=10.0, help="concave toe length [m]")
     ap.add_argument("--roll-length", type=float, default=10.0, help="convex roll length [m]")
@@ -199,10 +208,11 @@ def main(argv: list[str]) -> int:
     ap.add_argument(
         "--start-window",
         type=float,
-        nargs=2,
-        default=(2.0, 8.0),
-        metavar=("X_MIN", "X_MAX"),
-        help="x range [m] of the crack start (the weakest spot in it)",
+        nargs="+",
+        default=[2.0, 8.0],
+        metavar="M",
+        help="X_MIN X_MAX (y: the middle half of the width) or X_MIN X_MAX Y_MIN Y_MAX [m]: "
+        "the crack starts at the weakest spot in it",
     )
     ap.add_argument(
         "--field-dx",
@@ -219,19 +229,44 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--no-controls", action="store_true", help="skip the two controls")
     ap.add_argument("--only", default="", help="comma-separated run names (seed0,...,planar)")
     a = ap.parse_args(argv)
-    base = GenericSlopeCase(
-        dx=a.dx,
-        duration=a.duration,
-        particles_per_cell=a.ppc,
-        length=a.length,
-        width=a.width,
-        mean_at=a.mean_at,
-        field_dx=a.field_dx,
-        toe_length=a.toe_length,
-        roll_length=a.roll_length,
-        toe_slope_deg=a.toe_slope,
-        start_window=tuple(a.start_window),
-    )
+    # flags checked before anything compiles: an argparse error (exit 2) names the flag
+    for flag, value, ok, valid in (
+        ("--seeds", a.seeds, a.seeds >= 1, "[1, inf)"),
+        ("--ppc", a.ppc, 1 <= a.ppc <= 8, "[1, 8]"),
+        ("--dx", a.dx, 0 < a.dx < math.inf, "(0, inf) m"),
+        ("--duration", a.duration, 0 < a.duration < math.inf, "(0, inf) s"),
+        ("--length", a.length, 0 < a.length < math.inf, "(0, inf) m"),
+        ("--width", a.width, 0 < a.width < math.inf, "(0, inf) m"),
+        ("--toe-slope", a.toe_slope, 0 < a.toe_slope < 90, "(0, 90) deg"),
+        ("--fracture-energy", a.fracture_energy, a.fracture_energy > 0, "(0, inf] J/m^2"),
+    ):
+        if not ok:  # also false for nan
+            ap.error(f"{flag} = {value}: must be in {valid}")
+    try:
+        base = GenericSlopeCase(
+            dx=a.dx,
+            duration=a.duration,
+            particles_per_cell=a.ppc,
+            length=a.length,
+            width=a.width,
+            mean_at=a.mean_at,
+            field_dx=a.field_dx,
+            toe_length=a.toe_length,
+            roll_length=a.roll_length,
+            toe_slope_deg=a.toe_slope,
+            start_window=tuple(a.start_window),
+        )
+    except ValueError as exc:
+        flags = {
+            "toe_length": "--toe-length",
+            "roll_length": "--roll-length",
+            "start_window": "--start-window",
+            "length": "--length",
+        }
+        msg = str(exc).removeprefix("GenericSlopeCase: ")
+        for key, flag in flags.items():  # whole names only: "length" is in "toe_length"
+            msg = re.sub(rf"(?<![\w-]){key} = ", f"{flag} = ", msg)
+        ap.error(msg)
     runs = [(f"seed{k}", dataclasses.replace(base, seed=k)) for k in range(a.seeds)]
     if not a.no_controls:
         runs += [

@@ -279,7 +279,12 @@ def grf(
 def trend_direction(trend_deg: float) -> tuple[float, float]:
     """Unit vector (ux, uy) of a trend direction [deg, counter-clockwise from +x], with
     components below 1e-12 set to exactly 0 (so 0 and +-90 deg depend on one axis only)."""
-    a = math.radians(float(trend_deg))
+    ok = isinstance(trend_deg, (int, float, np.integer, np.floating)) and not isinstance(
+        trend_deg, bool
+    )
+    if not ok or not math.isfinite(float(trend_deg)):
+        raise ValueError(f"trend_deg = {trend_deg!r}: must be a finite number [deg]")
+    a = math.radians(math.fmod(float(trend_deg), 360.0))  # fmod first: exact for big angles
     ux, uy = math.cos(a), math.sin(a)
     return (0.0 if abs(ux) < 1e-12 else ux), (0.0 if abs(uy) < 1e-12 else uy)
 

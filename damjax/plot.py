@@ -15,10 +15,15 @@ def _plt() -> Any:
 
     import matplotlib
 
-    # a file backend for scripts and the CLI, but never switch a backend already in use:
+    # a file backend for scripts and the CLI, but never switch a backend already chosen:
     # in Jupyter (MPLBACKEND is set by the kernel, or pyplot already imported) that would
     # silently turn off inline figures for the rest of the session
-    if "matplotlib.pyplot" not in sys.modules and not os.environ.get("MPLBACKEND"):
+    chosen_by = getattr(matplotlib.rcParams, "_get_backend_or_none", lambda: None)
+    if (
+        "matplotlib.pyplot" not in sys.modules
+        and not os.environ.get("MPLBACKEND")
+        and chosen_by() is None
+    ):
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

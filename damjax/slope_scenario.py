@@ -355,9 +355,11 @@ def check(
     x0, y0 = setup.start
     if strength is None or "start_window" not in strength:
         if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
+            given = "" if "start" in svals else " (the default: give setup.start)"
             problems.append(
-                f"setup.start = {_fmt(list(setup.start))}: must lie in [0, {setup.length:g}] x "
-                f"[0, {setup.width:g}] m (the release area)"
+                f"setup.start = {_fmt(list(setup.start))}{given}: must lie in "
+                f"[0, {setup.length:g}] x [0, {setup.width:g}] m (the release area), or give "
+                "strength.start_window"
             )
     else:
         from damjax.scenarios.generic_slope import window_problem
@@ -436,7 +438,11 @@ def check(
             f"{100 * frac:.3g} % of the release area (the weak layer fails there under the "
             "slab's weight)"
         )
-    del start
+    if "start" in svals and strength is not None and "start_window" in strength:
+        notes.append(
+            f"setup.start = {_fmt(list(setup.start))} is not used: strength.start_window "
+            f"picks the start, ({start[0]:.4g}, {start[1]:.4g}) m"
+        )
     return scn, notes
 
 
@@ -649,11 +655,12 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
     if "start_window" in st:
         from damjax.scenarios.generic_slope import GenericSlopeCase, weak_spot
 
-        case = GenericSlopeCase(
+        case = GenericSlopeCase(  # only its grid and window: no generic profile
             length=setup.length,
             width=setup.width,
             dx=setup.dx,
             start_window=tuple(st["start_window"]),
+            planar=True,
         )
         try:
             start = weak_spot(case, tau)

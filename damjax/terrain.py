@@ -214,6 +214,22 @@ def _ramp(t: Array) -> Array:
     return 0.5 - 0.5 * jnp.cos(jnp.pi * jnp.clip(t, 0.0, 1.0))
 
 
+def profile_problem(length: float, toe_length: float, roll_length: float) -> str | None:
+    """Why a generic slope's toe and roll do not fit its length (None: they fit).
+
+    The toe and the roll must be finite and > 0, and toe_length + roll_length <= length
+    (equal: no planar part, the toe runs straight into the roll)."""
+    for name, v in (("length", length), ("toe_length", toe_length), ("roll_length", roll_length)):
+        if not (math.isfinite(v) and v > 0):
+            return f"{name} = {v!r}: must be in (0, inf) m"
+    if toe_length + roll_length > length * (1 + 1e-12):
+        return (
+            f"toe_length = {toe_length:g} m + roll_length = {roll_length:g} m: must be at most "
+            f"length = {length:g} m (defaults: toe 10 m, roll 10 m)"
+        )
+    return None
+
+
 def generic_slope_angle(
     s: ArrayLike,
     *,
@@ -250,6 +266,13 @@ def generic_slope_angle(
     for name, v in (("toe_length", toe_length), ("roll_length", roll_length)):
         if not isinstance(v, jax.core.Tracer) and not np.all(np.asarray(v, dtype=float) > 0):
             raise ValueError(f"generic_slope_angle: {name} = {v!r}: must be in (0, inf) m")
+    concrete = (length, toe_length, roll_length)
+    if not any(isinstance(v, jax.core.Tracer) for v in concrete) and all(
+        np.ndim(v) == 0 for v in concrete
+    ):
+        problem = profile_problem(float(length), float(toe_length), float(roll_length))
+        if problem:
+            raise ValueError(f"generic_slope_angle: {problem}")
     s = jnp.asarray(s)
     rise = (max_slope_deg - toe_slope_deg) * _ramp(s / toe_length)
     fall = (max_slope_deg - top_slope_deg) * _ramp((s - (length - roll_length)) / roll_length)
@@ -292,11 +315,9 @@ def generic_slope(
         raise ValueError(
             f"generic_slope: length, width, dx, dy must be > 0, got {length}, {width}, {dx}, {dy}"
         )
-    if toe_length + roll_length > length:
-        raise ValueError(
-            f"generic_slope: toe_length + roll_length = {toe_length + roll_length} m exceeds "
-            f"length = {length} m"
-        )
+    problem = profile_problem(length, toe_length, roll_length)
+    if problem:
+        raise ValueError(f"generic_slope: {problem}")
     s = np.linspace(0.0, length, int(math.ceil(length / 0.01)) + 1)
     psi = np.radians(
         np.asarray(

@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 import os
+import sys
 
 import jax.numpy as jnp
 import numpy as np
@@ -140,3 +141,20 @@ def test_results_dataset_is_cf_style_and_round_trips(tmp_path, engine):
 def test_snapshots_can_be_left_out():
     ds = io.result_dataset(_fake(), crack_speed=np.zeros(10), attrs={}, snapshots=False)
     assert not [v for v in ds.variables if str(v).startswith("snapshot_")]
+
+
+def test_plot_leaves_a_chosen_matplotlib_backend_alone():
+    """damjax.plot picks Agg only when nothing chose a backend: switching a notebook's inline
+    backend (or one set with matplotlib.use) would silently stop figures from showing."""
+    import subprocess
+
+    code = (
+        "import matplotlib; matplotlib.use('svg'); from damjax import plot; plot._plt(); "
+        "print(matplotlib.get_backend())"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.stdout.strip() == "svg", out.stderr
+    code = code.replace("matplotlib.use('svg'); ", "")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.stdout.strip().lower() == "agg", out.stderr

@@ -601,3 +601,38 @@ def test_start_window_with_a_y_range_and_its_errors():
             quiet_parse(doc)
     with pytest.raises(ValueError, match="y_min < y_max"):
         GenericSlopeCase(start_window=(2.0, 8.0, 30.0, 10.0))
+
+
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        (dict(trend_deg=math.nan), "trend_deg = nan: must be a finite number"),
+        (dict(trend_deg="45"), "trend_deg = '45': must be a finite number"),
+        (dict(start_window=("2", "6")), "of finite numbers"),
+        (dict(start_window=((2, 6), (7, 11))), "of finite numbers"),
+        (dict(length=19.0), "must be at most length = 19 m"),
+        (dict(roll_length=-1.0), "roll_length = -1.0: must be in \\(0, inf\\) m"),
+    ],
+)
+def test_generic_slope_case_checks_its_fields_when_built(kw, needle):
+    with pytest.raises(ValueError, match=needle):
+        GenericSlopeCase(**kw)
+    # a toe running straight into the roll is a valid profile (no planar part)
+    assert GenericSlopeCase(length=20.0, start_window=(2.0, 8.0)).length == 20.0
+
+
+def test_slope_acceptance_flags_are_checked_before_any_run(capsys):
+    from benchmarks import slope_acceptance
+
+    for argv, needle in (
+        (["--roll-length", "45"], "--toe-length = 10 m + --roll-length = 45 m: must be at most"),
+        (["--start-window", "6", "2"], "--start-window = (6.0, 2.0): must have"),
+        (["--start-window", "2", "6", "7"], "--start-window = (2.0, 6.0, 7.0): must be"),
+        (["--dx", "0"], "--dx = 0.0: must be in (0, inf) m"),
+        (["--toe-slope", "nan"], "--toe-slope = nan: must be in (0, 90) deg"),
+        (["--seeds", "0"], "--seeds = 0: must be in [1, inf)"),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            slope_acceptance.main(argv)
+        assert exc.value.code == 2
+        assert needle in capsys.readouterr().err, argv

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 
 import jax
@@ -202,3 +203,14 @@ def test_leaf_modules_import_nothing_from_damjax(module):
         assert all(a.name == "terrain" for n in froms if n.module == "damjax" for a in n.names)
         allowed.add("damjax")
     assert all(not m.startswith("damjax") or m in allowed for m in imported)
+
+
+def test_generic_profile_must_fit_its_length():
+    """toe + roll longer than the slope used to give an overlapping profile silently."""
+    with pytest.raises(ValueError, match="must be at most length = 15 m"):
+        terrain.generic_slope_angle(np.linspace(0.0, 15.0, 7), length=15.0)
+    with pytest.raises(ValueError, match="length = nan: must be in"):
+        terrain.generic_slope(length=math.nan)
+    # toe + roll = length: the toe runs straight into the roll
+    psi = terrain.generic_slope_angle(np.array([0.0, 10.0, 20.0]), length=20.0)
+    np.testing.assert_allclose(psi, [30.0, 35.0, 20.0], atol=1e-5)

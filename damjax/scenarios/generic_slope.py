@@ -121,6 +121,16 @@ class GenericSlopeCase:
             problem = window_problem(self.start_window, self.length, self.width)
             if problem:
                 raise ValueError(f"GenericSlopeCase: start_window = {self.start_window}: {problem}")
+        from damjax import fields, terrain
+
+        try:
+            fields.trend_direction(self.trend_deg)
+        except ValueError as exc:
+            raise ValueError(f"GenericSlopeCase: {exc}") from None
+        if not self.planar:
+            problem = terrain.profile_problem(self.length, self.toe_length, self.roll_length)
+            if problem:
+                raise ValueError(f"GenericSlopeCase: {problem}")
 
 
 FIG12_PARAMS = dict(youngs_modulus=4.0e6, tensile_strength=4000.0, softening=1.0)
@@ -145,16 +155,6 @@ def slope_field(case: GenericSlopeCase) -> np.ndarray:
     x, y = cell_centres(case)
     if case.planar:
         psi = np.full(x.shape, case.max_slope_deg)
-    elif not (
-        case.toe_length > 0
-        and case.roll_length > 0
-        and case.toe_length + case.roll_length < case.length
-    ):
-        raise ValueError(
-            f"GenericSlopeCase: toe_length = {case.toe_length} m + roll_length = "
-            f"{case.roll_length} m must be below length = {case.length} m (the planar "
-            f"part at max_slope_deg = {case.max_slope_deg} deg lies between them)"
-        )
     else:
         psi = np.asarray(
             terrain.generic_slope_angle(
@@ -202,8 +202,13 @@ def full_window(window: tuple[float, ...], width: float) -> tuple[float, float, 
 
 def window_problem(window: Any, length: float, width: float) -> str | None:
     """Why a start window is invalid on a length x width area (None: it is valid)."""
+    shape = "must be (x_min, x_max) or (x_min, x_max, y_min, y_max) of finite numbers [m]"
     if not isinstance(window, (tuple, list)) or len(window) not in (2, 4):
-        return "must be (x_min, x_max) or (x_min, x_max, y_min, y_max) [m]"
+        return shape
+    for v in window:
+        real = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+        if not real or not math.isfinite(float(v)):
+            return shape
     x_lo, x_hi, y_lo, y_hi = full_window(tuple(window), width)
     if not 0 <= x_lo < x_hi <= length:
         return f"must have 0 <= x_min < x_max <= length = {length:g} m"
@@ -239,8 +244,9 @@ def weak_spot(case: GenericSlopeCase, tau: np.ndarray) -> tuple[float, float]:
     if not np.any(sel):
         raise ValueError(
             f"start_window = {list(case.start_window)}: no cell centre inside it on the "
-            f"dx = {case.dx} m grid (cell centres at (k + 0.5) dx, up to {x[-1]:.4g} m); "
-            "widen it or move it inside the release area"
+            f"dx = {case.dx} m grid (cell centres at (k + 0.5) dx: x from {x[0]:.4g} to "
+            f"{x[-1]:.4g} m, y from {y[0]:.4g} to {y[-1]:.4g} m; the window spans x "
+            f"[{x_lo:g}, {x_hi:g}], y [{y_lo:g}, {y_hi:g}] m); widen it"
         )
     i, j = np.unravel_index(np.argmin(np.where(sel, smooth, np.inf)), smooth.shape)
     return float(x[i]), float(y[j])

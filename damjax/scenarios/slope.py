@@ -333,8 +333,11 @@ class SlopeResult:
             },
         )
         if self.snapshots:
-            ds["snapshot_time"] = var(
-                ("snapshot",), self.snapshots["time"], "s", "time of the snapshot"
+            # a coordinate, as a PST's: ds.swap_dims(snapshot="snapshot_time").sel(...)
+            ds = ds.assign_coords(
+                snapshot_time=var(
+                    ("snapshot",), self.snapshots["time"], "s", "time of the snapshot"
+                )
             )
             ds["height_snapshots"] = var(
                 ("snapshot", "x", "y"), self.snapshots["height"], "m", "slab column height"
