@@ -705,30 +705,45 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
 def crack_speed_map(result: Any, smooth_m: float = 1.0) -> np.ndarray:
     """Local crack speed |grad t_arrival|^-1 [m/s] on the cell grid (NaN where intact).
 
-    The arrival time is box-smoothed over ``smooth_m`` first (the front is resolved to a
-    cell; a raw finite difference is noisy).
+    The gradient of the arrival time is the least-squares plane through the failed cells
+    of a ``smooth_m`` window around each cell (the front is resolved to a cell; a raw
+    finite difference is noisy). A fit, unlike smoothing then differencing, stays unbiased
+    where the window is cut by the area's edges or by intact cells: a box average there
+    flattens the field and made the speed up to 3 times too high along the edges.
     """
     t = np.where(np.isfinite(result.arrival_time), result.arrival_time, np.nan)
-    dx = float(result.x[1] - result.x[0]) if result.x.size > 1 else 1.0
-    k = max(1, int(round(0.5 * smooth_m / dx)))
-    valid = np.isfinite(t).astype(float)
-    tt = np.where(np.isfinite(t), t, 0.0)
-
-    def box(a: np.ndarray) -> np.ndarray:
-        p = np.pad(a, k, mode="edge")
-        c = np.pad(np.cumsum(np.cumsum(p, 0), 1), ((1, 0), (1, 0)))
-        w = 2 * k + 1
-        return c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]
-
-    n = box(valid)
-    ts = np.where(n > 0, box(tt) / np.maximum(n, 1), np.nan)
-    ts = np.where(np.isfinite(t), ts, np.nan)
-    if ts.shape[0] < 2 or ts.shape[1] < 2:
+    if t.shape[0] < 2 or t.shape[1] < 2:
         return np.full(t.shape, np.nan)
-    gx, gy = np.gradient(ts, dx)
-    g = np.hypot(gx, gy)
+    dx = float(result.x[1] - result.x[0])
+    k = max(1, int(round(0.5 * smooth_m / dx)))
+    valid = np.isfinite(t)
+    w = valid.astype(float)
+    tt = np.where(valid, t, 0.0)
+    # cell offsets in cells (the fit is shift-invariant; small numbers keep it exact)
+    ii, jj = np.meshgrid(
+        np.arange(t.shape[0], dtype=float), np.arange(t.shape[1], dtype=float), indexing="ij"
+    )
+
+    def box(a: np.ndarray) -> np.ndarray:  # window sums, zero outside the area
+        p = np.pad(a, k)
+        c = np.pad(np.cumsum(np.cumsum(p, 0), 1), ((1, 0), (1, 0)))
+        n = 2 * k + 1
+        return c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]
+
+    n = box(w)
+    si, sj, st = box(w * ii), box(w * jj), box(tt)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(g > 0, 1.0 / g, np.nan)
+        sii = box(w * ii * ii) - si * si / n
+        sjj = box(w * jj * jj) - sj * sj / n
+        sij = box(w * ii * jj) - si * sj / n
+        sit = box(tt * ii) - si * st / n
+        sjt = box(tt * jj) - sj * st / n
+        det = sii * sjj - sij * sij
+        ok = valid & (n >= 3) & (det > 1e-9 * np.maximum(sii * sjj, 1e-300))
+        gx = (sjj * sit - sij * sjt) / det / dx  # [s/m]
+        gy = (sii * sjt - sij * sit) / det / dx
+        g = np.hypot(gx, gy)
+        return np.where(ok & (g > 0), 1.0 / g, np.nan)
 
 
 def read_setup_params(text: str) -> tuple[Any, PSTParams]:
