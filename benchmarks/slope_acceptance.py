@@ -70,7 +70,14 @@ Roll length (`--roll-length 8` / `12 --no-controls`; rows in
 | 10 m (default) | 40 m | 41.8 / 33.8 / 42.8 / 41.6 / 40.6 | 40.1 | 41.7-44.9 | 4 of 5 |
 | 12 m | 38 m | 41.0 / 32.6 / 42.0 / 40.6 / 40.0 | 39.2 | 40.5-44.1 | 4 of 5 |
 
-GRID_CHECK
+Grid. Seeds 0, 1 and 4 (the two nearest the 40 m line and the one below it) on dx 0.1 m
+with the same fields (`--dx 0.1 --field-dx 0.2 --no-controls --only seed0,seed1,seed4`:
+each field drawn on the dx 0.2 m grid and interpolated; 300 000 particles, 11 100 steps;
+415-640 s per run with other work alongside; rows in
+`slope_acceptance_results_dx0.1_field0.2.jsonl`): 41.5 / 33.0 / 40.7 m from the start
+(dx 0.2 m: 41.8 / 33.8 / 40.6), positions 43.6 / 41.0 / 42.8 m, all below the top with the
+front quiet after 2.04-2.64 s, peak speeds 0.92-1.34 c_s up-slope and 0.88-0.97 c_s
+across. The arrest is grid-converged to 0.8 m, and the count in 40-50 m is the same.
 
 For comparison, a 1D PST with the same slab and weak layer (sigma_t 4 kPa, delta 1,
 E 4 MPa, tau_p 1 kPa then +20 Pa/m from the start, `damjax pst --strength-gradient 20

@@ -65,8 +65,9 @@ class GenericSlopeCase:
         duration: simulated time [s].
         seed: PRNG seed of the Gaussian random field.
         mean: expected tau_p up to x = `mean_at` [Pa].
-        mean_at: where the trend starts [m]; None: the bottom of the start window, so
-            that the crack starts where the strength is `mean`, as in the PST.
+        mean_at: where the trend starts [m, along `trend_deg`]; None: the start window's
+            first edge along the trend (its lower edge for an up-slope trend), so that the
+            crack starts where the strength is `mean`, as in the PST.
         trend: mean strength gradient [Pa/m] (0: stationary field), up-slope unless
             `trend_deg` turns it.
         trend_deg: direction of the rising strength [deg, counter-clockwise from up-slope]:
@@ -83,7 +84,7 @@ class GenericSlopeCase:
         toe_slope_deg: slope angle at the lower edge [deg].
         top_slope_deg: slope angle at the top edge [deg].
         toe_length: length of the concave toe [m] (`damjax.terrain.generic_slope_angle`).
-        roll_length: length of the convex roll at the top [m]; toe + roll < length.
+        roll_length: length of the convex roll at the top [m]; toe + roll <= length.
         start: crack start (x, y) [m]; None: the weakest spot in the start window.
         start_window: (x_min, x_max) [m] of the start window, y in the middle half of the
             width; or (x_min, x_max, y_min, y_max) [m].
