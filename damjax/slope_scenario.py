@@ -391,7 +391,8 @@ def check(
         problem = terrain_mod.profile_problem(setup.length, t["toe_length"], t["roll_length"])
         if problem:  # the one rule of damjax.terrain, with the scenario's key names
             problems.append(
-                "terrain." + problem.replace("roll_length", "terrain.roll_length", 1).replace(
+                "terrain."
+                + problem.replace("roll_length", "terrain.roll_length", 1).replace(
                     "at most length", "at most setup.length", 1
                 )
             )
