@@ -385,16 +385,13 @@ def check(
             f"particles: must be at most {scenario.MAX_PARTICLES:.0e}"
         )
     if terrain is not None and terrain["kind"] == "generic":
-        from damjax import terrain as terrain_mod
-
         t = {**_GENERIC_DEFAULTS, **terrain}
-        problem = terrain_mod.profile_problem(setup.length, t["toe_length"], t["roll_length"])
-        if problem:  # the one rule of damjax.terrain, with the scenario's key names
+        # the rule of damjax.terrain.profile_problem, quoting the values as written
+        if t["toe_length"] + t["roll_length"] > setup.length:
             problems.append(
-                "terrain."
-                + problem.replace("roll_length", "terrain.roll_length", 1).replace(
-                    "at most length", "at most setup.length", 1
-                )
+                f"terrain.toe_length = {_fmt(t['toe_length'])}: toe_length + roll_length = "
+                f"{t['toe_length'] + t['roll_length']:g} m must be at most setup.length = "
+                f"{setup.length:g} m"
             )
     if terrain is not None and terrain["kind"] == "dem":
         if "file" not in terrain:
