@@ -190,6 +190,19 @@ import numpy as np
 from benchmarks.cases import emit, slope_row
 from damjax.scenarios.generic_slope import GenericSlopeCase, fig12_params
 
+# the case fields each row records (with its start window)
+_CASE_KEYS = (
+    "seed",
+    "trend",
+    "planar",
+    "length",
+    "width",
+    "duration",
+    "toe_slope_deg",
+    "toe_length",
+    "roll_length",
+)
+
 
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(
@@ -291,15 +304,7 @@ def main(argv: list[str]) -> int:
             # JSON has no infinity: null is the perfectly plastic slab
             slab_fracture_energy=a.fracture_energy if math.isfinite(a.fracture_energy) else None,
             run=name,
-            seed=case.seed,
-            trend=case.trend,
-            planar=case.planar,
-            length=case.length,
-            width=case.width,
-            duration=case.duration,
-            toe_slope_deg=case.toe_slope_deg,
-            toe_length=case.toe_length,
-            roll_length=case.roll_length,
+            **{k: getattr(case, k) for k in _CASE_KEYS},
             start_window=list(case.start_window),
         )
         emit(**row)

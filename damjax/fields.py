@@ -289,6 +289,29 @@ def trend_direction(trend_deg: float) -> tuple[float, float]:
     return (0.0 if abs(ux) < 1e-12 else ux), (0.0 if abs(uy) < 1e-12 else uy)
 
 
+def trend_distance(
+    x: ArrayLike, y: ArrayLike, length: float, width: float, trend_deg: float
+) -> np.ndarray:
+    """Distance [m] of points (x, y) of a length x width area from the area's edge (or
+    corner) a trend in direction `trend_deg` starts at: (x, y) . u minus its minimum over
+    the area, u the unit vector of `trend_direction`. x and y broadcast."""
+    ux, uy = trend_direction(trend_deg)
+    return (
+        ux * np.asarray(x, dtype=float)
+        + uy * np.asarray(y, dtype=float)
+        - min(0.0, ux * length)
+        - min(0.0, uy * width)
+    )
+
+
+def box_sum(a: np.ndarray, k: int, mode: str = "constant") -> np.ndarray:
+    """Sums of a 2D array over (2k + 1) x (2k + 1) windows centred on each cell, the array
+    padded by ``np.pad`` `mode` ("constant": zeros outside; "edge": the edge repeated)."""
+    c = np.pad(np.cumsum(np.cumsum(np.pad(a, k, mode=mode), 0), 1), ((1, 0), (1, 0)))
+    n = 2 * k + 1
+    return c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]
+
+
 def plateau_trend_field(
     key: Array,
     x: np.ndarray,
@@ -323,13 +346,9 @@ def plateau_trend_field(
     the same key then gives the same field on every grid. At most half the shortest
     correlation length.
     """
-    ux, uy = trend_direction(trend_deg)
-    # distance along u from the area's first edge: (x, y) . u minus its minimum over the area
-    d = (
-        ux * np.asarray(x, dtype=float)[:, None]
-        + uy * ((np.arange(ny) + 0.5) * dx)[None, :]
-        - min(0.0, ux * len(x) * dx)
-        - min(0.0, uy * ny * dx)
+    y = (np.arange(ny) + 0.5) * dx
+    d = trend_distance(
+        np.asarray(x, dtype=float)[:, None], y[None, :], len(x) * dx, ny * dx, trend_deg
     )
     expected = mean + trend * np.maximum(d - mean_at, 0.0)
     if std == 0.0:

@@ -222,24 +222,27 @@ def _default_mean_at(case: GenericSlopeCase) -> float:
     """Where the trend starts by default: the start window's first edge along the trend
     (its lower edge for an up-slope trend), so that the crack starts where the strength is
     `mean`, as in a PST."""
-    x_lo, x_hi, y_lo, y_hi = full_window(case.start_window, case.width)
     from damjax import fields
 
-    ux, uy = fields.trend_direction(case.trend_deg)
-    corners = [ux * (cx - (case.length if ux < 0 else 0.0)) for cx in (x_lo, x_hi)]
-    across = [uy * (cy - (case.width if uy < 0 else 0.0)) for cy in (y_lo, y_hi)]
-    return max(0.0, min(corners) + min(across))
+    x_lo, x_hi, y_lo, y_hi = full_window(case.start_window, case.width)
+    # the distance is linear: its minimum over the window is at a corner
+    d = fields.trend_distance(
+        np.array([[x_lo], [x_hi]]),
+        np.array([[y_lo, y_hi]]),
+        case.length,
+        case.width,
+        case.trend_deg,
+    )
+    return max(0.0, float(d.min()))
 
 
 def weak_spot(case: GenericSlopeCase, tau: np.ndarray) -> tuple[float, float]:
     """The weakest point of tau (box-smoothed over 2 m) in the start window [m]."""
     x, y = cell_centres(case)
+    from damjax import fields
+
     k = max(1, int(round(1.0 / case.dx)))
-    pad = np.pad(tau, k, mode="edge")
-    c = np.cumsum(np.cumsum(pad, 0), 1)
-    c = np.pad(c, ((1, 0), (1, 0)))
-    w = 2 * k + 1
-    smooth = (c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]) / (w * w)
+    smooth = fields.box_sum(tau, k, mode="edge") / (2 * k + 1) ** 2
     x_lo, x_hi, y_lo, y_hi = full_window(case.start_window, case.width)
     sel = (x[:, None] >= x_lo) & (x[:, None] <= x_hi) & (y[None, :] >= y_lo) & (y[None, :] <= y_hi)
     if not np.any(sel):
