@@ -1,0 +1,67 @@
+"""Inputs that may be JAX tracers (inside `jax.grad`, `jax.vmap`, `jax.jit`).
+
+A simulation needs a few concrete numbers before it can trace anything (the grid, the
+step count, whether the slab is plastic): `concrete_tree` recovers them from tracers
+where JAX still holds them (the primal values under `jax.grad` / `jax.jvp`, all members
+of a batch under `jax.vmap`) and returns None inside `jax.jit`, where only shapes are
+known. `dtype_name` accepts every way of naming a float dtype.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import numpy as np
+
+__all__ = ["concrete_tree", "concrete_value", "dtype_name", "is_traced"]
+
+
+def is_traced(tree: Any) -> bool:
+    """Whether any leaf of ``tree`` is a JAX tracer."""
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(tree))
+
+
+def concrete_value(x: Any) -> Any:
+    """The concrete value behind ``x``, or None if JAX does not hold one.
+
+    ``x`` itself when it is not a tracer; the primal value under `jax.grad` / `jax.jvp`;
+    the whole batch (every member, the batch axis included) under `jax.vmap`; None under
+    `jax.jit` (and other staging transforms).
+    """
+    from jax._src import core
+
+    for _ in range(64):  # nested transforms: one tracer level per iteration
+        if not isinstance(x, core.Tracer):
+            return x
+        to_concrete = getattr(core, "to_concrete_value", None)
+        value = to_concrete(x) if to_concrete is not None else None
+        if value is not None:
+            return value
+        if hasattr(x, "primal"):  # forward-mode tracer (jax.jvp)
+            x = x.primal
+        elif hasattr(x, "val") and hasattr(x, "batch_dim"):  # jax.vmap tracer
+            x = x.val
+        else:
+            return None
+    return None
+
+
+def concrete_tree(tree: Any) -> Any:
+    """``tree`` with every leaf replaced by its concrete value (`concrete_value`), or None
+    if some leaf has none (inside `jax.jit`)."""
+    leaves, treedef = jax.tree.flatten(tree)
+    values = [concrete_value(x) for x in leaves]
+    if any(v is None for v in values):
+        return None
+    return jax.tree.unflatten(treedef, values)
+
+
+def dtype_name(dtype: Any) -> str | None:
+    """Canonical name (``"float32"``, ``"float64"``, ...) of a dtype given as a string, a
+    numpy or JAX dtype or scalar type (``np.float64``, ``jnp.float64``,
+    ``np.dtype("float64")``); None if it names no dtype."""
+    try:
+        return np.dtype(dtype).name
+    except TypeError:
+        return None
