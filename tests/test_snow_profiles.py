@@ -1,0 +1,155 @@
+"""Snow profiles in: a SnowPilot CAAML pit and a SNOWPACK .pro file -> slab parameters."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from damjax import snow_profiles as sp
+
+DATA = Path(__file__).parent / "data" / "profiles"
+CAAML = DATA / "snowpilot-21449.caaml.xml"
+PRO = DATA / "sarp-example.pro"
+
+# the pit's density samples (depth of the 4 cm cutter's top [cm], rho [kg/m^3]), as in
+# the file (checked by eye against its <caaml:densityProfile>)
+PIT_DENSITY = [
+    (0, 164), (10, 184), (20, 200), (30, 204), (40, 216), (50, 268), (60, 280), (70, 276),
+    (80, 292), (90, 304), (100, 324), (110, 308), (120, 328), (130, 312), (140, 336),
+    (150, 324),
+]  # fmt: skip
+
+
+def test_modulus_relations_at_250():
+    """E(250 kg/m^3) of each relation against its formula evaluated by hand."""
+    assert sp.youngs_modulus(250.0, "scapozza") == pytest.approx(6.448e6, rel=1e-3)
+    assert sp.youngs_modulus(250.0, "gerling") == pytest.approx(64.37e6, rel=1e-3)
+    assert sp.youngs_modulus(250.0, "bergfeld") == pytest.approx(21.38e6, rel=1e-3)
+    with pytest.raises(ValueError, match="relation = 'x'"):
+        sp.youngs_modulus(250.0, "x")
+    with pytest.raises(ValueError, match="density = "):
+        sp.youngs_modulus(-1.0)
+    with pytest.warns(UserWarning, match="extrapolated"):
+        sp.youngs_modulus(60.0)
+
+
+def test_modulus_relations_match_weac():
+    tools = pytest.importorskip("weac.tools")
+    rho = np.array([150.0, 250.0, 350.0])
+    np.testing.assert_allclose(
+        sp.youngs_modulus(rho, "scapozza"), tools.scapozza(rho) * 1e6, rtol=1e-12
+    )
+    np.testing.assert_allclose(sp.youngs_modulus(rho, "gerling"), tools.gerling(rho) * 1e6)
+    np.testing.assert_allclose(sp.youngs_modulus(rho, "bergfeld"), tools.bergfeld(rho) * 1e6)
+
+
+@pytest.mark.parametrize(
+    ("code", "index"),
+    [("F", 1.0), ("4F+", 2 + 1 / 3), ("1F-", 3 - 1 / 3), ("K", 5.0), ("1F-P", 3.5)],
+)
+def test_hardness_index(code, index):
+    assert sp.hardness_index(code) == pytest.approx(index)
+    assert math.isnan(sp.hardness_index("Q"))
+
+
+def test_caaml_pit_reads_layers_density_and_tests():
+    pytest.importorskip("snowpylot")
+    prof = sp.read_profile(CAAML)
+    assert len(prof.layers) == 9
+    assert prof.concern == 4  # the observer's layer of concern (FC, 90-115 cm)
+    assert prof.slope_deg == 33.0
+    assert prof.layers[4].top == pytest.approx(0.90)
+    assert prof.layers[4].grain == "FC" and prof.layers[4].hardness == "4F"
+    assert prof.density_samples.shape == (16, 3)
+    assert prof.pst[0]["cut_length_m"] == pytest.approx(0.35)
+    assert "layer of concern" in prof.table()
+
+
+def test_caaml_slab_above_the_layer_of_concern():
+    pytest.importorskip("snowpylot")
+    prof = sp.read_profile(CAAML)
+    slab = prof.slab()
+    assert slab.weak_layer == 4 and slab.thickness == pytest.approx(0.90)
+    # exact mean of the piecewise-linear density through the samples' mid-depths (2, 12,
+    # ... cm; constant above the first) over 0-90 cm
+    mids = np.array([d + 2.0 for d, _ in PIT_DENSITY]) / 100
+    rho = np.array([r for _, r in PIT_DENSITY], dtype=float)
+    z = np.concatenate([[0.0], mids[mids < 0.9], [0.9]])
+    r = np.interp(z, mids, rho)
+    exact = float(np.sum(0.5 * (r[1:] + r[:-1]) * np.diff(z)) / 0.9)
+    assert slab.density == pytest.approx(exact, rel=1e-4)
+    # E is the mean of E(rho(z)), above E(mean rho) (E is convex in rho)
+    assert slab.youngs_modulus > sp.youngs_modulus(slab.density)
+    params = sp.pst_params(CAAML)
+    assert float(params.thickness) == pytest.approx(0.90)
+    assert float(params.slope_deg) == 33.0
+    assert float(params.density) == pytest.approx(slab.density)
+    assert float(params.youngs_modulus) == pytest.approx(slab.youngs_modulus)
+    vert = sp.pst_params(CAAML, vertical=True, tau_peak=1500.0)
+    assert float(vert.thickness) == pytest.approx(0.90 * math.cos(math.radians(33.0)))
+    assert float(vert.tau_peak) == 1500.0
+
+
+@pytest.mark.parametrize("bad", [0, 9, -1, 2.5, "4", True])
+def test_weak_layer_out_of_range_is_a_one_line_error(bad):
+    pytest.importorskip("snowpylot")
+    with pytest.raises(ValueError, match=r"weak_layer = .*: must be an integer in \[1, 8\]"):
+        sp.pst_params(CAAML, weak_layer=bad)
+
+
+def test_pro_last_profile_and_slab():
+    prof = sp.read_profile(PRO)
+    assert prof.date.isoformat() == "2017-11-14T12:00:00"
+    assert len(prof.layers) == 18
+    assert prof.layers[-1].bottom == pytest.approx(0.2161)  # HS = 21.61 cm
+    crust = prof.layers[6]  # the 722 (MF) element at 16.16-16.92 cm height
+    assert crust.grain == "MF" and crust.hardness_index == 5.0
+    assert crust.top == pytest.approx(0.2161 - 0.1692) and crust.density == 206.6
+    # weak layer: the new-snow element below the crust (15.59-16.16 cm height)
+    slab = prof.slab(7)
+    heights = np.array([16.16, 16.92, 18.91, 19.49, 19.99, 20.49, 21.03, 21.61]) / 100
+    rho = np.array([206.6, 80.9, 79.9, 82.5, 82.5, 83.6, 85.1])
+    assert slab.thickness == pytest.approx(0.2161 - 0.1616)
+    assert slab.density == pytest.approx(np.sum(rho * np.diff(heights)) / 0.0545, rel=1e-9)
+    assert slab.wl_shear_strength == pytest.approx(250.0)  # 0601: 0.25 kPa
+    assert slab.wl_critical_cut_length == pytest.approx(3.0)  # 0606 (SNOWPACK's value)
+    with pytest.warns(UserWarning, match="extrapolated"):
+        params = sp.pst_params(PRO, weak_layer=7, slope_deg=38.0)
+    assert float(params.tau_peak) == pytest.approx(250.0)
+    assert float(params.slope_deg) == 38.0
+
+
+def test_pro_date_selection_and_errors(tmp_path):
+    assert len(sp.read_profile(PRO, date="2017-11-13T18:00").layers) == 12
+    with pytest.raises(ValueError, match="before the first profile"):
+        sp.read_profile(PRO, date="2017-01-01")
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        sp.read_profile(tmp_path / "none.pro")
+    bad = tmp_path / "bad.pro"
+    bad.write_text("[STATION_PARAMETERS]\nStationName= x\n")
+    with pytest.raises(ValueError, match="not a SNOWPACK .pro file"):
+        sp.read_profile(bad)
+    with pytest.raises(ValueError, match="unknown profile format"):
+        sp.read_profile(tmp_path / "x.txt")
+    prof = sp.read_profile(PRO)
+    with pytest.raises(ValueError, match=r"no layer of concern.*\[1, 17\]"):
+        prof.slab()
+
+
+def test_pro_reader_matches_snowpat():
+    """The built-in reader against snowpat's SnowpackReader on every profile of the file."""
+    spr = pytest.importorskip("snowpat.snowpackreader")
+    reader = spr.readPRO(str(PRO))
+    for when, pack in zip(reader.get_all_dates(), reader.get_all_profiles(), strict=True):
+        ours = sp.read_pro(PRO, date=when)
+        b = pack.get_param("0501")
+        assert len(ours.layers) == b.size - 1
+        tops = np.array([ly.top for ly in ours.layers])[::-1]
+        np.testing.assert_allclose(tops, (b[-1] - b[1:]) / 100, atol=1e-12)
+        dens = np.array([ly.density for ly in ours.layers])[::-1]
+        np.testing.assert_allclose(dens, pack.get_param("0502"))
+        st = np.array([ly.shear_strength for ly in ours.layers])[::-1]
+        np.testing.assert_allclose(st, pack.get_param("0601") * 1e3)
