@@ -143,9 +143,8 @@ def pst_grad() -> None:
 
     import jax
 
-    from damjax import PSTParams, PSTSetup
+    from damjax import PSTParams, PSTSetup, pst
     from damjax.core.loop import cpu_compiler_options
-    from damjax.scenarios import pst
 
     duration = float(os.environ.get("DAMJAX_BENCH_DURATION", "3.0"))
     params, setup = PSTParams(), PSTSetup(duration=duration)
@@ -255,8 +254,7 @@ def pst_grad_fd() -> None:
 
     import jax
 
-    from damjax import PSTParams, PSTSetup
-    from damjax.scenarios import pst
+    from damjax import PSTParams, PSTSetup, pst
 
     dtype = os.environ.get("DAMJAX_BENCH_DTYPE", "float64")
     if dtype == "float64":
@@ -358,9 +356,9 @@ _SLOPE_KEYS = (
 
 
 def slope_row(case_name: str, case, params=None) -> dict:
-    """One JSON row of a generic-slope run (`damjax.scenarios.generic_slope`); `params`
+    """One JSON row of a generic-slope run (`damjax.slope.generic`); `params`
     defaults to the paper's Fig. 12 slab (`fig12_params`)."""
-    from damjax.scenarios.generic_slope import run_generic_slope
+    from damjax.slope.generic import run_generic_slope
 
     s = run_generic_slope(case, params).summary
     return dict(
@@ -382,7 +380,7 @@ def slope() -> None:
     """Paper Fig. 12a: 50 m x 60 m generic slope, GRF 20 Pa/m, dx 0.2 m, 2 s (seed 0)."""
     import os
 
-    from damjax.scenarios.generic_slope import GenericSlopeCase
+    from damjax.slope.generic import GenericSlopeCase
 
     ppc = int(os.environ.get("DAMJAX_BENCH_PPC", "1"))
     # the issue's timing case: 2 s simulated (the arrest itself needs up to ~2.8 s, see

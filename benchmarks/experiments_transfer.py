@@ -605,7 +605,7 @@ def exp_pst(dims: list[int], rounds: int = 5) -> None:
     sums unrolled, and this checkout's damjax.core.step; alternating in one process."""
     from damjax import PSTParams
     from damjax.core import step as step_here
-    from damjax.scenarios.pst import build, make_layout
+    from damjax.core.model import build, make_layout
 
     steps = {
         f"{COMMITTED[:7]} step.py (stacked, jnp.sum)": committed_step(False).step,

@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from damjax.config import PSTParams, PSTSetup
+from damjax import PSTParams, PSTSetup
 from damjax.sweep import sweep
 
 BASE = dict(tensile_strength=6000.0, youngs_modulus=4.0e6, steady_length=20.0, softening=1.0)

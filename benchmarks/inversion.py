@@ -62,9 +62,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax import calibrate
-from damjax.config import PSTParams, PSTSetup
-from damjax.scenarios import pst
+from damjax import PSTParams, PSTSetup, calibrate, pst
 from damjax.sweep import sweep
 
 FIELDS = ("softening", "tensile_strength")

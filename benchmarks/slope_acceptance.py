@@ -1,6 +1,6 @@
 """Issue 5 acceptance: paper Fig. 12a's generic slope over 5 GRF seeds, and 2 controls.
 
-The 50 m x 60 m generic slope (`damjax.scenarios.generic_slope.FIG12A`) and the two controls
+The 50 m x 60 m generic slope (`damjax.slope.generic.FIG12A`) and the two controls
 (the same slope without the up-slope trend; a planar 35 deg slope with the trend).
 
     python -m benchmarks.slope_acceptance            # dx 0.2 m, 4 s, seeds 0-4
@@ -17,7 +17,7 @@ the least-squares mean over the whole run (``*_mean_over_cs``, which averages th
 acceleration after the saw and the deceleration before the arrest in). All runs share
 one compiled step (same shapes), so only the first pays the compilation.
 
-Measured (stop 16; the geometry the paper states, `damjax.scenarios.generic_slope.FIG12A`:
+Measured (stop 16; the geometry the paper states, `damjax.slope.generic.FIG12A`:
 50 m down-slope x 60 m across along the surface, toe from 30 deg at the lower edge to 35 deg
 at 10 m, a 10 m convex roll to 20 deg at the top; strength 1 kPa up to x = 2 m, then
 +20 Pa/m, GRF std 100 Pa, correlation length 8 m; start at the weakest spot with x in
@@ -188,7 +188,7 @@ import sys
 import numpy as np
 
 from benchmarks.cases import emit, slope_row
-from damjax.scenarios.generic_slope import GenericSlopeCase, fig12_params
+from damjax.slope.generic import GenericSlopeCase, fig12_params
 
 # the case fields each row records (with its start window)
 _CASE_KEYS = (

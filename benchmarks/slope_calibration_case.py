@@ -14,7 +14,7 @@ The synthetic field case (small, so it runs in minutes on 2 cores):
 - "measured" strength map: the true field sampled every 1 m with 20 Pa white noise,
   put on the calibration grid with `damjax.fields.map_on_grid`;
 - calibration: dx 0.125 m (`--dx`), 1 particle per cell, sigma_t from `--start` (2.5 kPa)
-  by `damjax.slope_calibration.calibrate_slope` (the lowest-loss evaluated iterate).
+  by `damjax.calibrate.slope.calibrate_slope` (the lowest-loss evaluated iterate).
 
     python -m benchmarks.slope_calibration_case [--start 2500] [--steps 12] [--dx 0.125]
         [--fine-dx 0.0625] [--fracture-energy 1.0]
@@ -71,10 +71,9 @@ import time
 import jax
 import numpy as np
 
-from damjax import fields
-from damjax import slope_calibration as sc
-from damjax.scenarios.generic_slope import fig12_params
-from damjax.scenarios.slope import SlopeSetup, simulate_slope
+from damjax import SlopeSetup, fields, simulate_slope
+from damjax.calibrate import slope as sc
+from damjax.slope.generic import fig12_params
 
 L, W, THETA, TRUE_SIGMA_T = 30.0, 8.0, 125.0, 4000.0
 G_F = 1.0  # slab fracture energy [J/m^2] of the truth and of the calibrated model

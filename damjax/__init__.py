@@ -1,29 +1,33 @@
 """damjax: differentiable depth-averaged MPM for snow slab avalanche release.
 
-Public API (one screen):
+Public API (one screen; the package's layers are mapped in CONTRIBUTING.md):
 
-- `PSTParams`, `PSTSetup`: physical parameters (differentiable) and numerics (static);
-- `simulate_pst`: run a propagation saw test, returns a `PSTResult`;
+- `SnowParams` (alias `PSTParams`): slab and weak-layer parameters, differentiable leaves;
+- `PSTSetup`, `simulate_pst` -> `PSTResult`: a propagation saw test;
+- `SlopeSetup`, `simulate_slope` -> `SlopeResult`: a slope-scale release on terrain;
 - `sweep`: a batch of PSTs as one vmapped (sharded) computation;
 - `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX), with
   `make_layout` (the static grid and step count) for use under `jax.grad`/`jit`/`vmap`;
-- `calibrate`: scaling-law fits and parameter inversion through the solver (optax);
+- `calibrate`: scaling-law fits, inversion through the solver, slope calibration (optax);
 - `scenario`, `runner`: TOML scenario files, runs with NetCDF output and restart;
 - `theory`: closed forms of the paper (tau_g, k_f, k_x, Lambda, ...);
-- `diagnostics`: crack tip, speed, arrest, tension gradient.
+- `diagnostics`: crack tip, speed, arrest, tension gradient; `plot`: figures.
 """
 
 from damjax import calibrate, diagnostics, plot, runner, scenario, theory
-from damjax.config import PSTParams, PSTSetup
-from damjax.scenarios.pst import PSTResult, arrest_position_smooth, make_layout, simulate_pst
+from damjax._version import __version__
+from damjax.params import PSTParams, PSTSetup, SlopeSetup, SnowParams
+from damjax.pst import PSTResult, arrest_position_smooth, make_layout, simulate_pst
+from damjax.slope import SlopeResult, simulate_slope
 from damjax.sweep import sweep
-
-__version__ = "0.1.0"
 
 __all__ = [
     "PSTParams",
     "PSTResult",
     "PSTSetup",
+    "SlopeResult",
+    "SlopeSetup",
+    "SnowParams",
     "__version__",
     "arrest_position_smooth",
     "calibrate",
@@ -33,6 +37,7 @@ __all__ = [
     "runner",
     "scenario",
     "simulate_pst",
+    "simulate_slope",
     "sweep",
     "theory",
 ]

@@ -21,7 +21,8 @@ import sys
 import warnings
 from typing import Any
 
-from damjax.config import PSTParams, PSTSetup, setup_problems
+from damjax.params import PSTParams, PSTSetup
+from damjax.validation import setup_problems
 
 _PARAM_FIELDS = [f.name for f in dataclasses.fields(PSTParams)]
 _SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n not in ("strength_profile", "slope_profile")]
@@ -162,7 +163,7 @@ def _with_strength_profile(params: PSTParams, setup: PSTSetup, path: str, fit: s
 
 def cmd_pst(ns: argparse.Namespace) -> int:
     from damjax import io
-    from damjax.scenarios.pst import simulate_pst
+    from damjax.pst import simulate_pst
 
     params = PSTParams(**{name: getattr(ns, name) for name in _SCALAR_PARAM_FIELDS})
     setup = _setup_from(ns)

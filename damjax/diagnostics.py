@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.config import is_plastic
+from damjax.validation import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
 SMOOTH_WIDTH = 0.1  # relative width of the damage ramp of the smooth arrest position

@@ -1,37 +1,27 @@
-"""Physical parameters (differentiable) and numerical setup (static) of a PST run.
+"""The differentiable physical parameters and the static setups of the simulations.
 
-`PSTParams` holds every physical quantity as a pytree leaf, so `jax.grad` and `jax.vmap`
-act on it directly and a new parameter value never triggers recompilation.  `PSTSetup`
-holds the numerics that fix array shapes and the program (length, dx, particles per
-cell, ...): it is hashable and static.
+`SnowParams` (alias `PSTParams`, the name of the PST papers and of earlier versions) holds
+every physical quantity of the slab and the weak layer as a pytree leaf, so `jax.grad`
+and `jax.vmap` act on it directly and a new parameter value never triggers recompilation;
+one class serves the PST (`damjax.pst`) and the slope (`damjax.slope`). `PSTSetup` and
+`SlopeSetup` hold the numerics that fix array shapes and the program (length, dx,
+particles per cell, ...): they are hashable and static.
 
-Validation happens here, at the edge, before anything is traced: every problem is one
-line that names the API field, the CLI flag, the value and the valid range.
+Their validation (one line per problem, naming the field, the value and the valid range)
+is `damjax.validation`, run once at the edge by `simulate_pst` / `simulate_slope`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import warnings
-from collections.abc import Iterable
 from typing import Any
 
 import equinox as eqx
-import jax
-import numpy as np
-
-G_ACC = 9.81  # gravitational acceleration [m/s^2]
-
-LATERAL_CONDITIONS = ("free", "constrained")
-DTYPES = ("float32", "float64")
-P0_RULES = ("paper", "uniaxial")
-MCC_INVARIANTS = ("3d", "plane")
 
 
-class PSTParams(eqx.Module):
-    """Physical parameters of a propagation saw test (paper baseline by default).
+class SnowParams(eqx.Module):
+    """Slab and weak-layer parameters of a PST or a slope (paper baseline by default).
 
     Every field is a differentiable leaf (a float or a JAX scalar; batched leaves are
     what `damjax.sweep` vmaps over).
@@ -95,7 +85,7 @@ class PSTParams(eqx.Module):
     slope_profile: Any = None
 
 
-# PSTParams fields that are arrays over x (a batch of them has shape (B, m))
+# SnowParams fields that are arrays over x (a batch of them has shape (B, m))
 PROFILE_FIELDS = ("strength_profile", "slope_profile")
 
 
@@ -145,487 +135,35 @@ class PSTSetup:
     mcc_invariants: str = "3d"
 
 
-# field name -> (CLI flag, check, description of the valid range)
-def _pos(v: float) -> bool:
-    return v > 0 and math.isfinite(v)
+PSTParams = SnowParams  # the name users know (PST papers, earlier versions)
 
 
-def _nonneg(v: float) -> bool:
-    return v >= 0 and math.isfinite(v)
+@dataclasses.dataclass(frozen=True)
+class SlopeSetup:
+    """Numerics and geometry of a slope-scale run.
 
-
-PARAM_RULES: dict[str, tuple[Any, str]] = {
-    "slope_deg": (lambda v: 0 < v < 90, "(0, 90) deg"),
-    "thickness": (_pos, "(0, inf) m"),
-    "density": (_pos, "(0, inf) kg/m^3"),
-    "youngs_modulus": (_pos, "(0, inf) Pa"),
-    "poisson": (lambda v: 0 < v < 0.5, "(0, 0.5)"),
-    "friction_deg": (lambda v: 0 < v < 90, "(0, 90) deg"),
-    "wl_shear_modulus": (_pos, "(0, inf) Pa"),
-    "wl_thickness": (_pos, "(0, inf) m"),
-    "tau_peak": (lambda v: v > 0, "(0, inf] Pa"),
-    "steady_length": (_nonneg, "[0, inf) m"),
-    "strength_gradient": (_nonneg, "[0, inf) Pa/m"),
-    "softening": (_nonneg, "[0, inf)"),
-    "tensile_strength": (lambda v: v > 0, "(0, inf] Pa"),
-    "saw_speed": (_pos, "(0, inf) m/s"),
-    "mcc_m": (_pos, "(0, inf)"),
-    "mcc_beta": (_pos, "(0, inf)"),
-    "mcc_xi": (_nonneg, "[0, inf)"),
-    "slab_fracture_energy": (lambda v: v > 0, "(0, inf] J/m^2"),
-}
-
-SETUP_RULES: dict[str, tuple[Any, str]] = {
-    "length": (_pos, "(0, inf) m"),
-    "dx": (_pos, "(0, inf) m"),
-    "duration": (_pos, "(0, inf) s"),
-    "cfl": (lambda v: 0 < v < 1, "(0, 1)"),
-    "particles_per_cell": (lambda v: 1 <= v <= 64 and float(v).is_integer(), "[1, 64], integers"),
-    # a chunk is one compiled scan: 10^7 steps is hours of run between snapshots
-    "chunk_steps": (lambda v: 1 <= v <= 1e7 and float(v).is_integer(), "[1, 10^7], integers"),
-    "dim": (lambda v: v in (1, 2), "{1, 2}"),
-    "width": (_pos, "(0, inf) m"),
-}
-
-
-# API fields that `damjax pst` has no flag for (scenario files and the API only)
-NO_CLI_FLAG = ("slope_profile", "p0_rule", "mcc_invariants")
-
-
-def flag(name: str) -> str:
-    """CLI flag of an API field name (``slope_deg`` -> ``--slope-deg``)."""
-    return "--" + name.replace("_", "-")
-
-
-def label(name: str) -> str:
-    """A field as errors name it: ``slope_deg (--slope-deg)``, or the bare name where the
-    command line has no flag for it."""
-    return name if name in NO_CLI_FLAG else f"{name} ({flag(name)})"
-
-
-def _problem(name: str, value: Any, valid: str, with_flag: bool = True) -> str:
-    label_ = label(name) if with_flag else name
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
-        shown = f"{float(value):.3g}"  # 1e30 typed for an integer field
-    else:
-        shown = repr(value)
-    return f"{label_} = {shown}: {must_text(valid)}"
-
-
-def must_text(valid: str) -> str:
-    """'must be in (0, inf) m', or 'must be an integer in [1, 64]' for integer rules."""
-    if valid.endswith(", integers"):
-        return f"must be an integer in {valid[: -len(', integers')]}"
-    return f"must be in {valid}"
-
-
-def _as_float(value: Any) -> float | None:
-    try:
-        import numpy as np
-
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    return float(arr.max()) if arr.size else None
-
-
-def _leaf_values(value: Any) -> list[float] | None:
-    """All scalar values of a (possibly batched) leaf, or None if not numeric (a string
-    or a bool is not a number here, though numpy would convert it)."""
-    if isinstance(value, (str, bytes, bool, np.bool_)):
-        return None
-    try:
-        if np.asarray(value).dtype.kind not in "iuf":
-            return None
-        arr = np.asarray(value, dtype=float).ravel()
-    except (TypeError, ValueError):
-        return None
-    return [float(x) for x in arr]
-
-
-def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str]:
-    """One line per invalid parameter value (empty when all are valid)."""
-    import numpy as np
-
-    problems: list[str] = []
-    if params.strength_profile is not None:
-        prof = _leaf_values(params.strength_profile)
-        shape = np.shape(params.strength_profile)
-        if prof is None or len(shape) < 1 or shape[-1] < 2:
-            problems.append(
-                f"{label('strength_profile')} has shape {shape}: "
-                "must be an array of >= 2 values [Pa]"
-            )
-        elif any(math.isnan(v) or not v > 0 for v in prof):
-            bad = next(v for v in prof if math.isnan(v) or not v > 0)
-            problems.append(_problem("strength_profile", bad, "(0, inf] Pa (every value)"))
-    if params.slope_profile is not None:
-        prof = _leaf_values(params.slope_profile)
-        shape = np.shape(params.slope_profile)
-        if prof is None or len(shape) < 1 or shape[-1] < 2:
-            problems.append(
-                f"{label('slope_profile')} has shape {shape}: must be an array of >= 2 values [deg]"
-            )
-        elif any(math.isnan(v) or not 0 < v < 90 for v in prof):
-            bad = next(v for v in prof if math.isnan(v) or not 0 < v < 90)
-            problems.append(_problem("slope_profile", bad, "(0, 90) deg (every value)"))
-    for name, (ok, valid) in PARAM_RULES.items():
-        values = _leaf_values(getattr(params, name))
-        if values is None or not values:
-            problems.append(_problem(name, getattr(params, name), valid + " (a number)"))
-            continue
-        bad = [v for v in values if math.isnan(v) or not ok(v)]
-        if bad:
-            problems.append(_problem(name, bad[0], valid))
-    if problems:
-        return problems
-    # consistency checks between fields (elementwise over a batch)
-    from damjax import theory
-
-    try:
-        lam = _as_min(theory.elastic_length(params))
-        tau_g = theory.gravity_shear(params)
-    except Exception:  # pragma: no cover - defensive: numbers already validated
-        return problems
-    import numpy as np
-
-    if params.slope_profile is not None:  # the steepest point loads the layer most
-        psi_max = np.max(np.asarray(params.slope_profile, dtype=float), axis=-1)
-        tau_g = (
-            np.asarray(params.density, dtype=float)
-            * G_ACC
-            * np.asarray(params.thickness, dtype=float)
-            * np.sin(np.radians(psi_max))
-        )
-
-    if setup is not None and not setup.controlled:
-        tau_min = (
-            np.min(np.asarray(params.strength_profile, dtype=float))
-            if params.strength_profile is not None
-            else np.asarray(params.tau_peak, dtype=float)
-        )
-        weak = tau_min <= np.asarray(tau_g)
-        if np.any(weak):
-            what = (
-                "strength_profile (--strength-profile) minimum"
-                if params.strength_profile is not None
-                else "tau_peak (--tau-peak)"
-            )
-            problems.append(
-                f"{what} = {float(np.min(tau_min))!r}: must exceed the "
-                f"gravitational shear stress tau_g = {float(np.max(tau_g)):.1f} Pa, otherwise "
-                "the weak layer has already failed under the slab's weight"
-            )
-    # the slab's elastic slip on the intact layer, tau_g / K (baseline 0.14 mm): metres of
-    # it mean a layer with no stiffness, and a slab that leaves the grid before failing
-    slip = np.max(
-        np.asarray(tau_g, dtype=float)
-        * np.asarray(params.wl_thickness, dtype=float)
-        / np.asarray(params.wl_shear_modulus, dtype=float)
-    )
-    if slip > MAX_ELASTIC_SLIP:
-        problems.append(
-            f"wl_shear_modulus (--wl-shear-modulus) = {_as_min(params.wl_shear_modulus)!r} with "
-            f"wl_thickness (--wl-thickness) = {_as_float(params.wl_thickness)!r}: the weak layer's "
-            f"elastic slip under the slab, tau_g D_wl / G_wl = {slip:.3g} m, must be at most "
-            f"{MAX_ELASTIC_SLIP} m (a stiffer or thinner layer; the baseline's is 0.14 mm)"
-        )
-    if setup is not None and math.isfinite(setup.dx) and setup.dx > 0:
-        if setup.dx > lam / 2:
-            problems.append(
-                f"dx (--dx) = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m "
-                f"(Lambda = {lam:.4g} m, the weak-layer elastic length, must be resolved)"
-            )
-    if setup is not None:
-        lss = _leaf_values(params.steady_length) or [0.0]
-        if not setup.controlled and params.strength_profile is None and max(lss) >= setup.length:
-            problems.append(
-                f"steady_length (--steady-length) = {max(lss)!r}: must be in "
-                f"[0, length = {setup.length!r}) m"
-            )
-    return problems
-
-
-MAX_ELASTIC_SLIP = 0.1  # [m]
-MIN_CELLS = 4  # a strip shorter than this has no interior (quadratic B-spline stencil)
-
-
-def single_run_problems(params: PSTParams) -> list[str]:
-    """One line per batched field (a run of one PST takes scalars, and 1-D profiles)."""
-    problems = []
-    for f in dataclasses.fields(params):
-        v = getattr(params, f.name)
-        if v is None:
-            continue
-        want = 1 if f.name in PROFILE_FIELDS else 0
-        if np.ndim(v) != want:
-            shape = np.shape(v)
-            kind = "a 1-D array of values along the strip" if want else "a number"
-            problems.append(
-                f"{label(f.name)} has shape {shape}: must be {kind} for one run "
-                "(a batch of runs is damjax.sweep)"
-            )
-    return problems
-
-
-def _as_min(x: Any) -> float:
-    import numpy as np
-
-    return float(np.min(np.asarray(x, dtype=float)))
-
-
-SETUP_CHOICES: dict[str, tuple[str, ...]] = {
-    "lateral": LATERAL_CONDITIONS,
-    "p0_rule": P0_RULES,
-    "mcc_invariants": MCC_INVARIANTS,
-    "dtype": DTYPES,
-}
-
-
-def field_problems(
-    setup: Any, rules: Iterable[str], choices: Iterable[str], with_flags: bool = True
-) -> list[str]:
-    """One line per invalid numerical setting among `rules` (keys of `SETUP_RULES`) and
-    `choices` (keys of `SETUP_CHOICES`) of any setup object (PST or slope); `with_flags`
-    names the CLI flag next to the field."""
-    problems: list[str] = []
-    for name in rules:
-        ok, valid = SETUP_RULES[name]
-        value = getattr(setup, name)
-        try:
-            if isinstance(value, (str, bytes)):
-                raise TypeError(name)
-            v = float(value)
-        except (TypeError, ValueError):
-            problems.append(_problem(name, value, valid + " (a number)", with_flags))
-            continue
-        if isinstance(value, bool) or math.isnan(v) or not ok(v):
-            problems.append(_problem(name, value, valid, with_flags))
-    for name in choices:
-        allowed = SETUP_CHOICES[name]
-        if getattr(setup, name) not in allowed:
-            valid = "{" + ", ".join(allowed) + "}"
-            problems.append(_problem(name, getattr(setup, name), valid, with_flags))
-    return problems
-
-
-def setup_problems(setup: PSTSetup) -> list[str]:
-    """One line per invalid numerical setting (empty when all are valid)."""
-    problems = field_problems(setup, SETUP_RULES, SETUP_CHOICES)
-    if not problems and setup.length / setup.dx < MIN_CELLS:
-        problems.append(
-            f"length (--length) = {setup.length!r}: must be at least {MIN_CELLS} cells of "
-            f"dx (--dx) = {setup.dx!r}, i.e. >= {MIN_CELLS * setup.dx:.4g} m"
-        )
-    if not isinstance(setup.controlled, bool):
-        problems.append(_problem("controlled", setup.controlled, "{True, False}"))
-    return problems
-
-
-def ensure_x64(dtype: str) -> None:
-    """Switch JAX's 64-bit mode on for a float64 run (``jax_enable_x64``, process-wide: it
-    also changes the default dtype of your own JAX code), with a warning the first time."""
-    if dtype != "float64" or jax.config.jax_enable_x64:
-        return
-    jax.config.update("jax_enable_x64", True)
-    warnings.warn(
-        "dtype = 'float64': damjax switched jax_enable_x64 on for this process (JAX's "
-        "default float is now float64 in your code too); set it yourself at start-up, "
-        "jax.config.update('jax_enable_x64', True), to silence this",
-        stacklevel=3,
-    )
-
-
-def require_x64(dtype: str) -> None:
-    """ValueError for a float64 run in a traced function while 64-bit mode is off (it
-    cannot be switched on inside a trace; the run would silently be float32)."""
-    if dtype == "float64" and not jax.config.jax_enable_x64:
-        raise ValueError(
-            "dtype (--dtype) = 'float64': needs JAX's 64-bit mode, which cannot be switched "
-            "on inside jax.grad/jit/vmap: call jax.config.update('jax_enable_x64', True) "
-            "at start-up"
-        )
-
-
-class DubiousInputWarning(UserWarning):
-    """Valid but physically dubious input (`dubious`): the run goes ahead."""
-
-
-def dubious(
-    params: PSTParams,
-    setup: PSTSetup,
-    given: Iterable[str] | None = None,
-    style: str = "api",
-) -> list[str]:
-    """One line per valid value that is physically dubious for a slab avalanche release
-    (the warnings of `validate` and of scenario files).
-
-    ``given``: parameter names set explicitly (None: all); only those are reported as
-    ignored by a controlled run. ``style``: "api" names fields as ``slope_deg
-    (--slope-deg)``, "toml" as ``params.slope_deg`` / ``setup.duration``.
+    Attributes:
+        length: down-slope extent of the release area along the surface [m].
+        width: cross-slope extent [m].
+        dx: grid spacing [m].
+        duration: simulated time [s].
+        start: crack initiation point (x, y) [m] (x up-slope from the lower edge).
+        cfl: Courant number.
+        particles_per_cell: particles per cell and dimension.
+        dtype: "float32" or "float64".
+        chunk_steps: steps per jitted chunk (one snapshot per chunk).
+        p0_rule: MCC p0 rule (see `PSTSetup`).
+        mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
     """
-    from damjax import theory
 
-    given = None if given is None else set(given)
-
-    def name_of(name: str, section: str = "params") -> str:
-        return f"{section}.{name}" if style == "toml" else label(name)
-
-    def fmt(v: Any) -> str:
-        return repr(float(v))
-
-    notes: list[str] = []
-
-    def scalar(name: str) -> float | None:
-        try:
-            v = np.asarray(getattr(params, name), dtype=float)
-        except (TypeError, ValueError):
-            return None
-        return float(v) if v.ndim == 0 else None
-
-    ranges = {
-        "slope_deg": (20.0, 60.0, "deg", "slab avalanches release on 30-50 deg slopes"),
-        "density": (50.0, 550.0, "kg/m^3", "the density of seasonal snow"),
-        "thickness": (0.05, 5.0, "m", "slab thicknesses of dry-snow slab avalanches"),
-        "youngs_modulus": (1e5, 1e9, "Pa", "Young's moduli of snow"),
-        "softening": (0.0, 10.0, "", "weak-layer softening coefficients"),
-    }
-    for name, (lo, hi, unit, what) in ranges.items():
-        v = scalar(name)
-        if v is not None and not lo <= v <= hi:
-            text = f"{name_of(name)} = {fmt(v)}: outside [{lo:g}, {hi:g}] {unit}, {what}"
-            notes.append(text.rstrip())
-    psi, phi = scalar("slope_deg"), scalar("friction_deg")
-    if params.slope_profile is not None:
-        try:
-            psi = float(np.max(np.asarray(params.slope_profile, dtype=float)))
-        except (TypeError, ValueError):
-            psi = None
-    if psi is not None and phi is not None and psi <= phi:
-        notes.append(
-            f"{name_of('slope_deg')} = {fmt(psi)}: at or below {name_of('friction_deg')} = "
-            f"{fmt(phi)}, friction holds a released slab, so a crack does not run away as a "
-            "shear crack (the paper's mechanism needs slope_deg > friction_deg); the "
-            "theory values that assume it are reported as null"
-        )
-    if setup.controlled:
-        default = PSTParams()
-        ignored = [
-            k
-            for k in ("tau_peak", "steady_length", "strength_gradient", "softening")
-            if (given is None or k in given) and scalar(k) != getattr(default, k)
-        ]
-        if ignored:
-            notes.append(
-                f"{name_of('controlled', 'setup')} = true: the weak layer is unbreakable, so "
-                + ", ".join(name_of(k) for k in ignored)
-                + (" is" if len(ignored) == 1 else " are")
-                + " ignored"
-            )
-        v = scalar("saw_speed")
-        if v is not None and v * setup.duration > setup.length:
-            notes.append(
-                f"{name_of('duration', 'setup')} = {fmt(setup.duration)}: the controlled cut "
-                f"({name_of('saw_speed')} = {fmt(v)} m/s) leaves the {setup.length:g} m domain at "
-                f"t = {setup.length / v:.3g} s; the tension gradient is then reported as null"
-            )
-    else:
-        v = scalar("saw_speed")
-        c = float(np.min(np.asarray(theory.shear_wave_speed(params), dtype=float)))
-        if v is not None and v > 0.5 * c:
-            notes.append(
-                f"{name_of('saw_speed')} = {fmt(v)}: a saw at {v / c:.2g} c_s in a "
-                "self-propagating PST (the paper saws at 6 m/s)"
-            )
-    for name in ("length", "width") if setup.dim == 2 and setup.lateral == "free" else ("length",):
-        v = float(getattr(setup, name))
-        n = max(1, round(v / setup.dx))
-        if abs(n * setup.dx - v) > 1e-6 * v:
-            notes.append(
-                f"{name_of(name, 'setup')} = {fmt(v)}: not a whole number of cells of "
-                f"dx = {fmt(setup.dx)}; the strip is {n * setup.dx:.6g} m"
-                + (" long" if name == "length" else " wide")
-            )
-    if setup.cfl > 0.9:
-        notes.append(
-            f"{name_of('cfl', 'setup')} = {fmt(setup.cfl)}: close to the stability limit 1"
-        )
-    return notes
-
-
-def validate(
-    params: PSTParams, setup: PSTSetup, *, warn_dubious: bool = True, batch: bool = False
-) -> None:
-    """Raise ValueError (one line per problem) for invalid input; warn on dubious input
-    (`dubious`, as `DubiousInputWarning`; ``warn_dubious=False``: only the resolution
-    warning). ``batch``: batched fields allowed (`damjax.sweep`)."""
-    if not batch:
-        problems = single_run_problems(params)
-        if problems:
-            raise ValueError("\n".join(problems))
-    problems = setup_problems(setup)
-    if not problems:
-        problems = param_problems(params, setup)
-    else:
-        problems += param_problems(params, None)
-    if problems:
-        raise ValueError("\n".join(problems))
-    from damjax import theory
-
-    lam = _as_min(theory.elastic_length(params))
-    if setup.dx > lam / 5:
-        warnings.warn(
-            f"dx = {setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip stress "
-            "concentration is under-resolved; results may depend on dx",
-            stacklevel=3,
-        )
-    if warn_dubious:
-        for note in dubious(params, setup):
-            warnings.warn(note, DubiousInputWarning, stacklevel=3)
-
-
-# bytes per particle and float of a run: ~60 particle rows live in a step (state, model,
-# the step's temporaries, the donated copy), plus the per-chunk snapshots kept on the host
-_ROWS_PER_PARTICLE = 64
-_SNAPSHOT_ROWS = 8
-
-
-def _physical_memory() -> int | None:
-    """Total physical memory [bytes], None where the OS does not say."""
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, ValueError, OSError):
-        return None
-
-
-def check_problem_size(
-    n_particles: int, n_nodes: int, n_chunks: int, itemsize: int, fields: str
-) -> None:
-    """Raise ValueError when a run cannot fit in this machine's memory.
-
-    A generous estimate (~64 particle-sized rows in a step plus 8 per stored snapshot) is
-    compared with the total physical memory, so that an absurd size (a 1e9 m PST) fails at
-    once with a message naming the fields, not with an allocation traceback from numpy or
-    XLA. `fields`: the inputs that set the size, e.g. "length (--length) and dx (--dx)".
-    """
-    total = _physical_memory()
-    if total is None:
-        return
-    need = itemsize * (
-        n_particles * (_ROWS_PER_PARTICLE + _SNAPSHOT_ROWS * max(1, n_chunks)) + 8 * n_nodes
-    )
-    if need > total:
-        raise ValueError(
-            f"{fields} give {n_particles:.3g} particles on {n_nodes:.3g} grid nodes over "
-            f"{n_chunks} chunks: ~{need / 2**30:.3g} GiB, more than this machine's "
-            f"{total / 2**30:.3g} GiB of memory; use a coarser dx, a smaller domain, a "
-            "shorter duration or larger chunk_steps"
-        )
-
-
-def is_plastic(params: PSTParams) -> bool | None:
-    """Whether some tensile strength is finite (an MCC slab); None for traced values."""
-    try:
-        return bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
-    except (TypeError, jax.errors.TracerArrayConversionError):
-        return None
+    length: float = 50.0
+    width: float = 60.0
+    dx: float = 0.2
+    duration: float = 2.0
+    start: tuple[float, float] = (5.0, 30.0)
+    cfl: float = 0.5
+    particles_per_cell: int = 2
+    dtype: str = "float32"
+    chunk_steps: int = 100
+    p0_rule: str = "paper"
+    mcc_invariants: str = "3d"

@@ -114,7 +114,7 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
 def plot_slope(result: Any, path: str | None = None) -> Any:
     """Maps of a slope-scale release: column height with the crown (h < 0.98 h0, blue)
     and the stauchwall (h > 1.02 h0, red), crack arrival time [s], local crack speed
-    over c_s (`damjax.slope_scenario.crack_speed_map`), weak-layer strength [Pa]."""
+    over c_s (`damjax.slope.results.crack_speed_map`), weak-layer strength [Pa]."""
     plt = _plt()
     from matplotlib.colors import ListedColormap
 
@@ -158,7 +158,7 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     ax.set_xlabel("y across [m]")
     ax = axes[2]
     from damjax import theory
-    from damjax.slope_scenario import crack_speed_map
+    from damjax.slope.results import crack_speed_map
 
     cs = float(theory.shear_wave_speed(result.params))
     im = ax.imshow(

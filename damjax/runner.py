@@ -13,7 +13,7 @@ A run writes into its output folder (every file atomically, see `damjax.io`):
   It is removed once the outputs are written.
 
 Slope scenarios write ``results.nc``, ``summary.json``, ``final_state.npz``,
-``slope.png`` and ``release.gif`` instead (`damjax.slope_scenario`), and checkpoint the
+``slope.png`` and ``release.gif`` instead (`damjax.scenario.slope`), and checkpoint the
 same way.
 
 `resume` continues a checkpoint with `simulate_pst(state=..., start_chunk=...,
@@ -34,8 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from damjax import config, io, scenario
+from damjax import io, scenario
 from damjax.scenario import Scenario
+from damjax.validation import ensure_x64
 
 CHECKPOINT = "checkpoint.npz"
 RESULTS = "results.nc"
@@ -139,7 +140,7 @@ class _Recorder:
 
 
 def _version() -> str:
-    from damjax import __version__
+    from damjax._version import __version__
 
     return __version__
 
@@ -147,17 +148,18 @@ def _version() -> str:
 def _prepare(scn: Scenario) -> tuple[Any, Any, Any, Any]:
     """Layout, model and initial state of a scenario (x64 switched on for float64)."""
 
-    from damjax.scenarios import pst
+    from damjax import pst
 
-    config.ensure_x64(scn.setup.dtype)
+    ensure_x64(scn.setup.dtype)
     if scn.type == "slope":
-        from damjax import slope_scenario
-        from damjax.scenarios import slope
+        from damjax.core.model import build_slope, make_slope_layout
+        from damjax.scenario.slope_fields import resolve_fields
+        from damjax.slope import simulation as slope
 
-        psi, fall, tau, start = slope_scenario.resolve_fields(scn)
+        psi, fall, tau, start = resolve_fields(scn)
         setup = dataclasses.replace(scn.setup, start=start)
-        layout = slope.make_layout(scn.params, setup, float(np.max(psi)))
-        model, state, _, _ = slope.build(scn.params, setup, layout, psi, tau, fall)
+        layout = make_slope_layout(scn.params, setup, float(np.max(psi)))
+        model, state, _, _ = build_slope(scn.params, setup, layout, psi, tau, fall)
         return slope, layout, model, state
     layout = pst.make_layout(scn.params, scn.setup)
     model, state = pst.build(scn.params, scn.setup, layout)
@@ -201,7 +203,7 @@ def run(
         n_chunks = _prepare(scn)[1].n_chunks
         rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
         return _run_slope(scn, out, rec, progress, None)
-    from damjax.scenarios.pst import make_layout
+    from damjax.pst import make_layout
 
     n_chunks = make_layout(scn.params, scn.setup).n_chunks
     rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
@@ -276,8 +278,8 @@ def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
 
 
 def _simulate(scn: Scenario, rec: _Recorder, progress: bool, **resume: Any) -> Any:
-    from damjax.config import DubiousInputWarning
-    from damjax.scenarios.pst import simulate_pst
+    from damjax.pst import simulate_pst
+    from damjax.validation import DubiousInputWarning
 
     try:
         with warnings.catch_warnings():
@@ -346,17 +348,18 @@ def _run_slope(
     """A slope scenario: results.nc (maps and snapshots), summary.json, slope.png and
     release.gif; checkpoints through ``rec`` as for PSTs (``resume``: state, start_chunk,
     history)."""
-    from damjax import slope_scenario
+    from damjax.scenario.slope_fields import simulate
+    from damjax.slope.results import result_dataset
 
     try:
-        result = slope_scenario.simulate(scn, progress=progress, callback=rec, **resume)
+        result = simulate(scn, progress=progress, callback=rec, **resume)
     except KeyboardInterrupt:
         if rec.every is not None:
             rec.save()
         raise
     summary = dict(result.summary)
     stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
-    ds = slope_scenario.result_dataset(result, snapshots=scn.output.snapshots)
+    ds = result_dataset(result, snapshots=scn.output.snapshots)
     ds.attrs.update(
         {
             "Conventions": "CF-1.10",
@@ -405,7 +408,7 @@ def _run_slope(
 
 def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
     """The scenario and a `PSTResult` rebuilt from ``results.nc`` alone."""
-    from damjax.scenarios.pst import PSTResult
+    from damjax.pst import PSTResult
 
     path = Path(out_dir) / RESULTS
     if not path.is_file():
@@ -461,10 +464,10 @@ def show(
     path = Path(out_dir) / RESULTS
     slope = None
     if path.is_file():
-        from damjax import slope_scenario
+        from damjax.slope.results import load_result as load_slope_result
 
         try:
-            slope = slope_scenario.load_result(path)
+            slope = load_slope_result(path)
         except (OSError, ValueError, KeyError):
             slope = None
     if slope is not None:

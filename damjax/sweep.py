@@ -23,10 +23,10 @@ from typing import Any
 import jax
 import numpy as np
 
-from damjax import config
-from damjax.config import PROFILE_FIELDS, PSTParams, PSTSetup, validate
+from damjax import pst
 from damjax.core.loop import RunInfo, cpu_compiler_options, run_chunk
-from damjax.scenarios import pst
+from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
+from damjax.validation import ensure_x64, must_text, validate
 
 
 def batch_size_of(params: PSTParams) -> int:
@@ -110,11 +110,11 @@ def sweep(
         or not isinstance(batch_size, (int, np.integer))
         or batch_size < 1
     ):
-        raise ValueError(f"batch_size = {batch_size!r}: {config.must_text('[1, inf), integers')}")
+        raise ValueError(f"batch_size = {batch_size!r}: {must_text('[1, inf), integers')}")
     n = batch_size_of(params_batch)
     batch = broadcast_batch(params_batch, n)
     validate(batch, setup, batch=True)
-    config.ensure_x64(setup.dtype)
+    ensure_x64(setup.dtype)
     layout = pst.make_layout(batch, setup)
 
     n_dev = len(jax.devices()) if shard else 1

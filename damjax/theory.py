@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as _np
 
-from damjax.config import G_ACC
+from damjax.constants import G_ACC
 
 try:  # theory works on JAX tracers too
     import jax.numpy as _jnp

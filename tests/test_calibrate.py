@@ -30,7 +30,7 @@ def test_power_law_fit_rejects_bad_data():
 def test_inversion_recovers_a_known_strength_gradient():
     setup = PSTSetup(length=10.0, dx=0.05, duration=0.5, chunk_steps=250)
     truth = PSTParams(steady_length=4.0, strength_gradient=800.0, softening=1.0)
-    from damjax.scenarios import pst
+    from damjax import pst
 
     observed = float(pst.arrest_position_smooth(truth, setup))
     start = PSTParams(steady_length=4.0, strength_gradient=1200.0, softening=1.0)

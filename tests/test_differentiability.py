@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 import damjax
-from damjax import PSTParams, PSTSetup
-from damjax.scenarios import pst
+from damjax import PSTParams, PSTSetup, pst
 
 SETUP = PSTSetup(length=10.0, dx=0.05, duration=0.5, chunk_steps=250)
 PARAMS = PSTParams(steady_length=4.0, strength_gradient=800.0, softening=1.0)

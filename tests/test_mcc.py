@@ -111,8 +111,7 @@ def test_infinite_tensile_strength_is_exactly_elastic():
 def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
     import dataclasses
 
-    from damjax import PSTParams, PSTSetup
-    from damjax.scenarios import pst
+    from damjax import PSTParams, PSTSetup, pst
 
     p = PSTParams(steady_length=5.0, strength_gradient=3000.0)
     s = PSTSetup(length=10.0, dx=0.05, duration=0.3, chunk_steps=100)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from damjax import PSTParams, PSTSetup, simulate_pst, theory
-from damjax.config import G_ACC
+from damjax.constants import G_ACC
 from damjax.core import transfer
 
 
@@ -83,7 +83,7 @@ def test_friction_cap_holds_a_released_slab_at_rest():
 
 
 def test_no_particle_leaves_the_grid_on_a_long_slide():
-    from damjax.scenarios import pst
+    from damjax import pst
 
     p = PSTParams(friction_deg=5.0, saw_speed=1e5)
     s = PSTSetup(length=3.0, dx=0.05, duration=2.0, controlled=True, chunk_steps=100)
@@ -179,9 +179,9 @@ def test_batched_transfers_equal_per_member_ones():
 
 
 def test_column_volume_h_times_area_is_conserved(small_setup, arresting_params):
+    from damjax import pst
     from damjax.core.step import column_height
     from damjax.materials.slab import area_ratio
-    from damjax.scenarios import pst
 
     lay = pst.make_layout(arresting_params, small_setup)
     model, state = pst.build(arresting_params, small_setup, lay)

@@ -266,7 +266,7 @@ def test_fault_is_reported_with_time_and_results_are_kept(tmp_path, scn_file, mo
 
 def test_run_cli_fault_exits_nonzero(tmp_path, scn_file, monkeypatch, capsys):
     """`damjax run` of a state that is broken from the start: exit 3, results written."""
-    from damjax.scenarios import pst
+    from damjax import pst
 
     build = pst.build
 

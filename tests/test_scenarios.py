@@ -21,8 +21,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from damjax import PSTParams, PSTSetup, config, runner, scenario, theory
+from damjax import PSTParams, PSTSetup, runner, scenario, theory, validation
 from damjax.cli import main
+from damjax.scenario import schema
 
 SHIPPED = scenario.shipped()
 NAMES = sorted(SHIPPED)
@@ -268,7 +269,7 @@ def _typo(key: str, how: int) -> str:
 
 
 def _out_of_range(sec: str, key: str, kind: str) -> list:
-    rules = config.PARAM_RULES if sec == "params" else config.SETUP_RULES
+    rules = validation.PARAM_RULES if sec == "params" else validation.SETUP_RULES
     if key not in rules:
         return []
     ok = rules[key][0]
@@ -431,12 +432,12 @@ def test_array_valued_params_fields_take_numbers_or_arrays():
 
     problems: list[str] = []
     table = {"strength_profile": [[0.0, 1000.0], [5.0, 2000.0]], "density": 250}
-    vals, _, _ = scenario._check_section("params", table, WithProfile, problems)
+    vals, _, _ = schema._check_section("params", table, WithProfile, problems)
     assert not problems
     assert vals["strength_profile"].shape == (2, 2) and vals["density"] == 250.0
     for wrong in (["a"], [1, [2]], [], "x", True, [math.nan], {"a": 1}):
         problems = []
-        scenario._check_section("params", {"strength_profile": wrong}, WithProfile, problems)
+        schema._check_section("params", {"strength_profile": wrong}, WithProfile, problems)
         assert len(problems) == 1, wrong
         assert problems[0].startswith("params.strength_profile = "), problems
         assert "a number or an array of numbers" in problems[0]

@@ -15,10 +15,9 @@ import jax
 import numpy as np
 import pytest
 
-from damjax import PSTParams, PSTSetup, fields
-from damjax.scenarios.generic_slope import fig12_params
-from damjax.scenarios.pst import simulate_pst
-from damjax.scenarios.slope import SlopeSetup, simulate_slope
+from damjax import PSTParams, PSTSetup, SlopeSetup, fields, simulate_slope
+from damjax.pst import simulate_pst
+from damjax.slope.generic import fig12_params
 
 L, W = 30.0, 8.0
 
@@ -93,9 +92,9 @@ def test_infinite_fracture_energy_is_the_perfectly_plastic_slab(small_setup, arr
 def test_fracture_marker_follows_the_crack_opening():
     # with crack-band softening a fracture is marked where the band keeps 5 % of its
     # strength (w = 3 w_c), so the marker threshold on the opening strain scales as 1/dx
+    from damjax import pst
     from damjax.core.state import FRACTURE_STRAIN
     from damjax.core.step import crack_band_opening, fracture_strain
-    from damjax.scenarios import pst
 
     out = {}
     for dx in (0.04, 0.02):

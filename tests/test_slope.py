@@ -17,18 +17,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from damjax import PSTParams, PSTSetup, scenario, slope_scenario, terrain
+from damjax import PSTParams, PSTSetup, SlopeSetup, scenario, simulate_slope, terrain
 from damjax.cli import main
 from damjax.materials import weak_layer
-from damjax.scenarios.generic_slope import (
+from damjax.pst import simulate_pst
+from damjax.scenario import slope_fields
+from damjax.slope import results as slope_results
+from damjax.slope.generic import (
     FIG12B,
     GenericSlopeCase,
     slope_field,
     strength_field,
     weak_spot,
 )
-from damjax.scenarios.pst import simulate_pst
-from damjax.scenarios.slope import SlopeSetup, simulate_slope
 
 SLOPE_NAMES = ["slope-quick", "slope-generic-50x60", "slope-generic-50x100"]
 JSON_KEYS = (
@@ -109,7 +110,7 @@ def test_acceptance_scenario_is_the_issue_5_case():
     assert (s.length, s.width, s.dx, s.duration) == (50.0, 60.0, 0.2, 4.0)
     assert scn.terrain["kind"] == "generic"
     assert scn.strength["kind"] == "grf" and scn.strength["trend"] == 20.0
-    slope, fall, tau, start = slope_scenario.resolve_fields(scn)
+    slope, fall, tau, start = slope_fields.resolve_fields(scn)
     assert slope.shape == tau.shape == (250, 300) and fall == 0.0
     assert slope.max() == pytest.approx(35.0, abs=1e-3) and 29.9 < slope[0, 0] < 30.1
     assert slope[-1, 0] < 21.0  # the convex roll
@@ -128,7 +129,7 @@ def test_acceptance_scenario_is_the_issue_5_case():
     # start near the top right corner; the TOML and FIG12B agree
     wide = scenario.load("slope-generic-50x100", warn=False)
     assert (wide.setup.length, wide.setup.width) == (50.0, 100.0)
-    _, _, tau_b, start_b = slope_scenario.resolve_fields(wide)
+    _, _, tau_b, start_b = slope_fields.resolve_fields(wide)
     y = (np.arange(500) + 0.5) * 0.2
     across = np.polyfit(y[y < 96.0], tau_b.mean(axis=0)[y < 96.0], 1)[0]
     assert across == pytest.approx(-20.0, abs=5.0)
@@ -269,7 +270,7 @@ def test_tilted_plane_dem_gives_its_slope_angle(tmp_path, gx, gy, upslope, fall)
     doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": origin, "upslope": upslope}
     scn = quiet_parse(doc, base_dir=tmp_path)
     assert Path(scn.terrain["file"]).is_absolute()
-    slope, fall_deg, tau, _ = slope_scenario.resolve_fields(scn)
+    slope, fall_deg, tau, _ = slope_fields.resolve_fields(scn)
     assert slope.shape == (120, 60)
     assert slope == pytest.approx(30.0, abs=1e-3)  # the .asc file keeps 6 decimals
     assert np.asarray(fall_deg) == pytest.approx(fall, abs=1e-3)
@@ -280,8 +281,8 @@ def test_dem_cross_tilt_sets_the_fall_direction():
     y = np.arange(0.0, 30.01, 1.0)
     xx, yy = np.meshgrid(x, y, indexing="ij")
     ter = terrain.Terrain(x, y, 0.6 * xx + 0.2 * yy)
-    xs, ys = slope_scenario.cell_centres(SlopeSetup(length=10.0, width=8.0, dx=0.5))
-    slope, fall = slope_scenario.dem_fields(ter, xs, ys, (2.0, 2.0), "+x")
+    xs, ys = slope_fields.cell_centres(SlopeSetup(length=10.0, width=8.0, dx=0.5))
+    slope, fall = slope_fields.dem_fields(ter, xs, ys, (2.0, 2.0), "+x")
     assert slope == pytest.approx(math.degrees(math.atan(math.hypot(0.6, 0.2))), abs=1e-6)
     assert fall == pytest.approx(math.degrees(math.atan2(0.2, 0.6)), abs=1e-6)
 
@@ -302,8 +303,8 @@ def test_generic_terrain_and_strength_map_on_the_grid():
     data = Path(scenario.library_dir()).parent.parent / "data" / "synthetic_strength_map.csv"
     doc["strength"] = {"kind": "map", "file": str(data)}
     scn = quiet_parse(doc)
-    slope, _, tau, _ = slope_scenario.resolve_fields(scn)
-    x, _ = slope_scenario.cell_centres(scn.setup)
+    slope, _, tau, _ = slope_fields.resolve_fields(scn)
+    x, _ = slope_fields.cell_centres(scn.setup)
     psi = terrain.generic_slope_angle(x, length=48.0)
     assert slope[:, 0] == pytest.approx(np.asarray(psi), abs=1e-4)
     assert np.all(np.isfinite(tau)) and 500.0 < tau.mean() < 2500.0
@@ -351,8 +352,8 @@ def test_constant_slope_profile_equals_the_scalar_slope():
 def test_slope_profile_is_validated_and_differentiable():
     import jax
 
-    from damjax.config import param_problems
-    from damjax.scenarios.pst import arrest_position_smooth, make_layout
+    from damjax.pst import arrest_position_smooth, make_layout
+    from damjax.validation import param_problems
 
     for bad in ([35.0], [35.0, 95.0], [35.0, math.nan]):
         lines = param_problems(PSTParams(slope_profile=bad))
@@ -467,7 +468,7 @@ def test_random_invalid_slope_mutations_give_clean_errors(tmp_path, capsys):
 
 def test_front_speed_peak_and_mean():
     """Peak = the fastest 4 m stretch of the front; mean = the fit over the whole range."""
-    from damjax.scenarios.slope import _front_speed
+    from damjax.slope.simulation import _front_speed
 
     # front at 40 m/s up to 10 m, 120 m/s from 10 to 22 m, 20 m/s beyond (arrest)
     c = np.arange(0.05, 30.0, 0.1)
@@ -489,7 +490,7 @@ def test_grf_strength_plateau_below_mean_at():
     doc["strength"].update(std=0.0, mean_at=8.0, trend=50.0)
     del doc["strength"]["start_window"]
     scn = quiet_parse(doc)
-    _, _, tau, _ = slope_scenario.resolve_fields(scn)
+    _, _, tau, _ = slope_fields.resolve_fields(scn)
     x = (np.arange(120) + 0.5) * 0.25
     assert tau[:, 0] == pytest.approx(1000.0 + 50.0 * np.maximum(x - 8.0, 0.0))
     doc["strength"]["mean_at"] = "low"
@@ -499,7 +500,7 @@ def test_grf_strength_plateau_below_mean_at():
 
 def test_generic_slope_field_dx_gives_the_same_field_on_every_grid():
     """field_dx fixes the GRF's grid: the same seed is the same field at dx 0.25 and 0.125."""
-    from damjax.scenarios.generic_slope import cell_centres
+    from damjax.slope.generic import cell_centres
 
     base = GenericSlopeCase(length=20.0, width=10.0, dx=0.25, trend=0.0, grf_length=4.0)
     plain = strength_field(base)
@@ -525,13 +526,13 @@ def test_scenario_grf_field_dx_fixes_the_sample_across_grids():
     doc["setup"].update(length=30.0, width=10.0, dx=0.25, start=[5.0, 5.0])
     doc["strength"].update(length_scale=4.0, field_dx=0.25, trend=0.0)
     del doc["strength"]["start_window"]
-    _, _, coarse, _ = slope_scenario.resolve_fields(quiet_parse(doc))
+    _, _, coarse, _ = slope_fields.resolve_fields(quiet_parse(doc))
     doc["setup"]["dx"] = 0.25 / 3
-    _, _, fine, _ = slope_scenario.resolve_fields(quiet_parse(doc))
+    _, _, fine, _ = slope_fields.resolve_fields(quiet_parse(doc))
     assert fine[1::3, 1::3] == pytest.approx(coarse, rel=1e-6)
     doc["strength"]["field_dx"] = 3.0
     with pytest.raises(ValueError, match="strength.field_dx = 3.0: must be at most half"):
-        slope_scenario.resolve_fields(quiet_parse(doc))
+        slope_fields.resolve_fields(quiet_parse(doc))
     doc["strength"]["field_dx"] = -1.0
     with pytest.raises(ValueError, match="strength.field_dx"):
         quiet_parse(doc)
@@ -555,7 +556,7 @@ def test_strength_map_must_cover_the_release_area_and_start_window_cells(tmp_pat
         + "\n".join(f"{x},{y},{1000 + 10 * x}" for x in range(13) for y in range(7))
     )
     doc["strength"] = {"kind": "map", "file": str(big)}
-    slope_scenario.resolve_fields(quiet_parse(doc))  # covers: fine
+    slope_fields.resolve_fields(quiet_parse(doc))  # covers: fine
     doc["strength"] = {"kind": "map", "file": str(big), "origin": [100.0, 100.0]}
     with pytest.raises(ValueError, match="check strength.origin"):
         quiet_parse(doc)
@@ -584,12 +585,12 @@ def test_start_window_with_a_y_range_and_its_errors():
         "seed": 1,
         "start_window": [3.0, 6.0, 8.0, 11.0],
     }
-    _, _, tau, start = slope_scenario.resolve_fields(quiet_parse(doc))
+    _, _, tau, start = slope_fields.resolve_fields(quiet_parse(doc))
     assert 3.0 <= start[0] <= 6.0 and 8.0 <= start[1] <= 11.0
     # the weakest 2 m box-smoothed spot of the window, not of the middle half of the width
     two = copy.deepcopy(doc)
     two["strength"]["start_window"] = [3.0, 6.0]
-    assert start != pytest.approx(slope_scenario.resolve_fields(quiet_parse(two))[3])
+    assert start != pytest.approx(slope_fields.resolve_fields(quiet_parse(two))[3])
     for bad, needle in (
         ([3.0, 6.0, 8.0], "start_window = \\[3.0, 6.0, 8.0\\]: must be \\[x_min, x_max\\] or"),
         ([3.0, 6.0, 11.0, 8.0], "0 <= y_min < y_max <= width = 12 m"),
@@ -651,13 +652,13 @@ def test_crack_speed_map_is_exact_for_plane_and_radial_fronts_up_to_the_edges():
     angle = np.radians(30.0)
     t = (X * np.cos(angle) + Y * np.sin(angle)) / 90.0
     t[X > 15.0] = np.inf  # intact beyond the front
-    v = slope_scenario.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y))
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y))
     released = np.isfinite(t)
     assert np.all(np.isnan(v[~released]))
     np.testing.assert_allclose(v[released], 90.0, rtol=1e-6)
     # a radial front from a corner: the speed is exact wherever the front is locally
     # straight over the 1 m window (away from the start itself)
     r = np.hypot(X, Y)
-    v = slope_scenario.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y))
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y))
     far = r > 5.0
     np.testing.assert_allclose(v[far], 60.0, rtol=0.01)

@@ -7,9 +7,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from damjax import slope_calibration as sc
-from damjax.scenarios.generic_slope import fig12_params
-from damjax.scenarios.slope import SlopeSetup
+from damjax import SlopeSetup
+from damjax.calibrate import slope as sc
+from damjax.slope.generic import fig12_params
 
 L, W, DX = 16.0, 3.0, 0.3
 

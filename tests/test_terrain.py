@@ -186,25 +186,6 @@ def test_geotiff_round_trip(tmp_path):
         terrain.load_geotiff(path)
 
 
-@pytest.mark.parametrize("module", ["fields", "terrain"])
-def test_leaf_modules_import_nothing_from_damjax(module):
-    """fields.py and terrain.py are leaves: at most damjax.config (for G_ACC), and fields.py
-    the other leaf, terrain.py (its map readers and bilinear sampling)."""
-    import ast
-    import importlib
-
-    source = importlib.import_module(f"damjax.{module}").__file__
-    tree = ast.parse(open(source, encoding="utf-8").read())
-    imported = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
-    imported += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
-    allowed = {"damjax.config"} | ({"damjax.terrain"} if module == "fields" else set())
-    if module == "fields":  # `from damjax import terrain`
-        froms = [n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
-        assert all(a.name == "terrain" for n in froms if n.module == "damjax" for a in n.names)
-        allowed.add("damjax")
-    assert all(not m.startswith("damjax") or m in allowed for m in imported)
-
-
 def test_generic_profile_must_fit_its_length():
     """toe + roll longer than the slope used to give an overlapping profile silently."""
     with pytest.raises(ValueError, match="must be at most length = 15 m"):

@@ -78,7 +78,7 @@ def test_a_run_too_large_for_memory_fails_at_once_naming_the_fields(capsys):
     assert main(["pst", "--length", "1e9"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "--length" in err and "coarser dx" in err
-    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+    from damjax import SlopeSetup, simulate_slope
 
     with pytest.raises(ValueError, match="slope.*GiB"):
         simulate_slope(
@@ -96,7 +96,7 @@ def test_a_run_too_large_for_memory_fails_at_once_naming_the_fields(capsys):
     ],
 )
 def test_slope_setup_problems_are_named(kw, match):
-    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+    from damjax import SlopeSetup, simulate_slope
 
     with pytest.raises(ValueError, match=match):
         simulate_slope(PSTParams(), SlopeSetup(length=10.0, width=10.0, start=(5.0, 5.0), **kw))
@@ -107,7 +107,7 @@ def test_slope_field_of_the_wrong_shape_is_rejected():
     silently at its edge."""
     import numpy as np
 
-    from damjax.scenarios.slope import SlopeSetup, simulate_slope
+    from damjax import SlopeSetup, simulate_slope
 
     setup = SlopeSetup(length=10.0, width=10.0, dx=0.2, start=(5.0, 5.0))
     for name in ("slope_deg", "tau_peak", "fall_deg"):
@@ -212,7 +212,7 @@ def test_controlled_cut_leaving_the_domain_warns_and_has_no_tension_gradient():
 
 def test_chunk_longer_than_the_run_keeps_the_cfl_time_step():
     from damjax import make_layout
-    from damjax.scenarios.pst import time_step
+    from damjax.core.model import time_step
 
     params = PSTParams(steady_length=3.0)
     short = PSTSetup(length=6.0, dx=0.05, duration=0.05, chunk_steps=100_000)

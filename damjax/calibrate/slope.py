@@ -22,7 +22,7 @@ observed value of the observation cell it sits in), which keeps the sub-cell pos
 the simulated front in the loss. Gradients come from reverse mode through the whole run
 (`damjax.core.loop.integrate_pure`, one state stored per segment of ~sqrt(n_steps) steps).
 The run is the host-loop solver's step (`damjax.core.step.step`) and initial state
-(`damjax.scenarios.slope.build`); only the slab/weak-layer leaves that depend on the
+(`damjax.core.model.build_slope`); only the slab/weak-layer leaves that depend on the
 calibrated parameters (p0, delta, u_r) are replaced by traced values.
 """
 
@@ -39,13 +39,14 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from damjax import config
-from damjax.config import PSTParams
 from damjax.core.loop import cpu_compiler_options, integrate_pure
+from damjax.core.model import SlopeLayout, build_slope, make_slope_layout
 from damjax.core.state import Model, State
 from damjax.diagnostics import smoothstep
 from damjax.materials import mcc, weak_layer
-from damjax.scenarios import slope
+from damjax.params import PSTParams, SlopeSetup
+from damjax.slope.simulation import SlopeResult
+from damjax.validation import ensure_x64, slope_problems
 
 CALIBRATED = ("tensile_strength", "softening")
 # relative width w of the damage ramp: wider than the 1D surrogate's 0.1, because after an
@@ -69,8 +70,8 @@ class SlopeProblem:
     """
 
     params: PSTParams
-    setup: slope.SlopeSetup
-    layout: slope.SlopeLayout
+    setup: SlopeSetup
+    layout: SlopeLayout
     model: Model
     state: State
     xp: np.ndarray
@@ -79,7 +80,7 @@ class SlopeProblem:
 
 def slope_problem(
     params: PSTParams,
-    setup: slope.SlopeSetup,
+    setup: SlopeSetup,
     *,
     slope_deg: Any,
     tau_peak: Any,
@@ -97,12 +98,12 @@ def slope_problem(
     """
     if not math.isfinite(float(params.tensile_strength)):
         raise ValueError("slope_problem: tensile_strength must be finite (elasto-plastic slab)")
-    problems = slope._problems(params, setup, slope_deg, tau_peak, fall_deg)
+    problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
-    config.ensure_x64(setup.dtype)
-    layout = slope.make_layout(params, setup, float(np.max(slope_deg)))
-    model, state, xp, yp = slope.build(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    ensure_x64(setup.dtype)
+    layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
+    model, state, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     return SlopeProblem(params, setup, layout, model, state, xp, yp)
 
 
@@ -146,7 +147,7 @@ class ObservationGrid:
         ) * self.cell
 
 
-def observation_grid(setup: slope.SlopeSetup, cell: float) -> ObservationGrid:
+def observation_grid(setup: SlopeSetup, cell: float) -> ObservationGrid:
     """Observation cells of size `cell` [m] over the setup's release area."""
     return ObservationGrid(
         float(cell),
@@ -194,7 +195,7 @@ def release_loss(damage: Any, observed: Any) -> Any:
 
 
 def observed_release(
-    result: slope.SlopeResult,
+    result: SlopeResult,
     grid: ObservationGrid,
     *,
     noise_std: float = 0.0,

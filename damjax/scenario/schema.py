@@ -8,7 +8,7 @@ Physically dubious but valid choices raise a `ScenarioWarning` instead.
 
 Format (SI units throughout; angles in degrees)::
 
-    type = "pst"                  # required: "pst", or "slope" (format: damjax.slope_scenario)
+    type = "pst"                  # required: "pst", or "slope" (format: damjax.scenario.slope)
     name = "elastic-delta0"       # required: [A-Za-z0-9._-], names the output folder
     description = "one line"      # optional: shown by `damjax scenarios`
 
@@ -66,7 +66,7 @@ A ``[strength]`` table is resolved when the scenario is read: the result holds t
 sampled ``params.strength_profile`` array (so `Scenario.to_toml` writes that array, and
 no longer needs the file); it cannot be combined with ``params.strength_profile``.
 
-Shipped scenarios live in ``damjax/scenarios/library/*.toml``; `shipped()` lists them
+Shipped scenarios live in ``damjax/scenario/library/*.toml``; `shipped()` lists them
 and `load` accepts a file path or a shipped name (``damjax run quick``).
 """
 
@@ -79,13 +79,15 @@ import math
 import re
 import typing
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from damjax import config
-from damjax.config import PSTParams, PSTSetup
+from damjax.constants import DTYPES, LATERAL_CONDITIONS, MCC_INVARIANTS, P0_RULES
+from damjax.params import PSTParams, PSTSetup
+from damjax.validation import NO_CLI_FLAG, PARAM_RULES, SETUP_RULES
 
 try:
     import tomllib
@@ -98,6 +100,22 @@ STRENGTH_KEYS = ("file", "fit", "points")
 SECTIONS = ("params", "setup", "output")
 MAX_PARTICLES = 50_000_000  # beyond this a run cannot be allocated on one device
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+# scenario type -> (check, warn): check(data, base_dir, problems) -> (Scenario or None,
+# dubious-value notes) appends one line per problem; warn(scn) gives the warnings of a
+# valid scenario (under-resolved dx). Filled by damjax.scenario.pst / .slope on import.
+_TYPES: dict[str, tuple[Callable[..., Any], Callable[..., None]]] = {}
+
+
+def register(
+    kind: str,
+    check: Callable[[dict[str, Any], str | Path | None, list[str]], tuple[Any, list[str]]],
+    warn: Callable[[Any], None],
+) -> None:
+    """Register the checker and the warnings of a scenario ``type`` (a module of
+    `damjax.scenario` per type calls this when it is imported)."""
+    _TYPES[kind] = (check, warn)
 
 
 class ScenarioWarning(UserWarning):
@@ -178,7 +196,7 @@ class Scenario:
 
 def library_dir() -> Path:
     """Folder of the shipped scenario files."""
-    return Path(str(importlib.resources.files("damjax.scenarios"))) / "library"
+    return Path(str(importlib.resources.files("damjax.scenario"))) / "library"
 
 
 def shipped() -> dict[str, Path]:
@@ -250,13 +268,7 @@ def parse(
     if warn:
         for note in notes:
             warnings.warn(note, ScenarioWarning, stacklevel=2)
-        # config.validate warns about under-resolved dx (Lambda/5)
-        if scn.type == "pst":
-            config.validate(scn.params, scn.setup, warn_dubious=False)
-        else:
-            from damjax import slope_scenario
-
-            slope_scenario.warn_resolution(scn)
+        _TYPES[scn.type][1](scn)  # e.g. under-resolved dx (Lambda/5)
     return scn
 
 
@@ -299,7 +311,7 @@ def _suggest(section: str | None, key: str) -> str:
     if hit:
         return f" (did you mean '{section}.{hit[0]}'?)"
     cls = {"params": "PSTParams", "setup": "PSTSetup", "output": "[output]"}[section]
-    return f" (not a field of {cls}; see the damjax.scenario docstring)"
+    return f" (not a field of {cls}; see the damjax.scenario.schema docstring)"
 
 
 def _known_keys() -> dict[str, list[str]]:
@@ -340,15 +352,15 @@ _KIND_TEXT = {
 }
 
 _CHOICES = {
-    "lateral": config.LATERAL_CONDITIONS,
-    "dtype": config.DTYPES,
-    "p0_rule": config.P0_RULES,
-    "mcc_invariants": config.MCC_INVARIANTS,
+    "lateral": LATERAL_CONDITIONS,
+    "dtype": DTYPES,
+    "p0_rule": P0_RULES,
+    "mcc_invariants": MCC_INVARIANTS,
 }
 
 
 def _valid_text(section: str, name: str, kind: str) -> str:
-    rules = config.PARAM_RULES if section == "params" else config.SETUP_RULES
+    rules = PARAM_RULES if section == "params" else SETUP_RULES
     text = _KIND_TEXT[kind]
     if name in rules:
         valid = rules[name][1]
@@ -428,9 +440,7 @@ def _check_section(
 
 # 'poisson (--poisson) = ...', or a bare 'slope_profile = ...' (fields with no CLI flag)
 _LINE_RE = re.compile(
-    r"^(?:(?P<name>\w+) \(--[\w-]+\)|(?P<bare>"
-    + "|".join(config.NO_CLI_FLAG)
-    + r")(?= ))(?P<rest>.*)$"
+    r"^(?:(?P<name>\w+) \(--[\w-]+\)|(?P<bare>" + "|".join(NO_CLI_FLAG) + r")(?= ))(?P<rest>.*)$"
 )
 
 
@@ -496,145 +506,9 @@ def _check(
     if not isinstance(desc, str):
         problems.append(f"description = {_fmt(desc)}: must be a string")
 
-    if kind == "slope":  # schema of damjax.slope_scenario
-        from damjax import slope_scenario
-
-        scn_slope, slope_notes = slope_scenario.check(data, base_dir, problems)
-        return (None, problems, []) if problems else (scn_slope, [], slope_notes)
-    if "terrain" in data:
-        problems.append('terrain: only for type = "slope" scenarios')
-    pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
-    svals, sbad, sgiven = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
-    ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)
-
-    reported = {f"params.{k}" for k in pbad} | {f"setup.{k}" for k in sbad}
-    params = PSTParams(**pvals)
-    setup = PSTSetup(**svals)
-    strength_notes: list[str] = []
-    if "strength" in data:
-        prof, strength_notes = _strength_profile(
-            data["strength"], params, setup, "strength_profile" in pvals, base_dir, problems
-        )
-        if prof is not None:
-            params = dataclasses.replace(params, strength_profile=prof)
-    # field ranges and consistency (config's rules), as validate() orders them
-    sprob = config.setup_problems(setup)
-    if sprob:
-        lines = sprob + config.param_problems(params, None)
-    else:
-        lines = config.param_problems(params, setup)
-        if not lines and not reported:
-            lines = _size_problems(params, setup)
-    given = {f"params.{k}": v for k, v in pvals.items()}
-    given.update({f"setup.{k}": v for k, v in svals.items()})
-    problems += _retarget(lines, reported, given)
-    if problems:
-        return None, problems, []
-    scn = Scenario(
-        name=name,
-        params=params,
-        setup=setup,
-        description=desc,
-        output=Output(**ovals),
-        type=kind,
-    )
-    return scn, [], strength_notes + config.dubious(params, setup, pgiven, style="toml")
-
-
-def _strength_profile(
-    table: Any,
-    params: PSTParams,
-    setup: PSTSetup,
-    has_profile: bool,
-    base_dir: str | Path | None,
-    problems: list[str],
-) -> tuple[np.ndarray | None, list[str]]:
-    """The ``[strength]`` table as a ``strength_profile`` array (None on problems).
-
-    Keys: ``file`` (CSV with columns x_m, tau_peak_pa; relative to ``base_dir``), ``fit``
-    ("none": the CSV is tau_p along the PST; "linear"/"power_law": a measured transect
-    fitted, shifted to params.tau_peak at params.steady_length and extrapolated, see
-    `damjax.fields.pst_strength_profile`), ``points`` (samples over [0, L]; default one
-    per grid node).
-    """
-    from damjax import fields
-
-    if not isinstance(table, dict):
-        problems.append(f"strength = {_fmt(table)}: must be a table ([strength])")
-        return None, []
-    n0 = len(problems)
-    for key in table:
-        if key not in STRENGTH_KEYS:
-            hit = difflib.get_close_matches(key, STRENGTH_KEYS, n=1)
-            more = (
-                f" (did you mean 'strength.{hit[0]}'?)"
-                if hit
-                else f" (valid: {', '.join(STRENGTH_KEYS)})"
-            )
-            problems.append(f"strength.{key}: unknown key{more}")
-    if has_profile:
-        problems.append("strength: give either [strength] or params.strength_profile, not both")
-    file = table.get("file")
-    if "file" not in table:
-        problems.append("strength.file: missing (a CSV with columns x_m, tau_peak_pa)")
-    elif not isinstance(file, str) or not file:
-        problems.append(f"strength.file = {_fmt(file)}: must be a path (a string)")
-    fit = table.get("fit", "none")
-    if fit not in fields.PROFILE_FITS:
-        valid = "{" + ", ".join(f'"{c}"' for c in fields.PROFILE_FITS) + "}"
-        problems.append(f"strength.fit = {_fmt(fit)}: must be one of {valid}")
-    points = table.get("points")
-    if points is not None and (
-        not isinstance(points, int) or isinstance(points, bool) or points < 2
-    ):
-        problems.append(f"strength.points = {_fmt(points)}: must be an integer >= 2")
-    if len(problems) > n0 or config.setup_problems(setup):
-        return None, []
-    for name in ("tau_peak", "steady_length"):
-        v = getattr(params, name)
-        if np.ndim(v) != 0 or math.isnan(float(v)):
-            return None, []  # reported by the params checks
-    path = Path(file)
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    num = points if points is not None else max(2, int(round(setup.length / setup.dx)) + 1)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            prof = fields.pst_strength_profile(
-                path,
-                setup.length,
-                num,
-                fit=fit,
-                steady_length=float(params.steady_length),
-                tau_peak=float(params.tau_peak),
-            )
-        except FileNotFoundError:
-            problems.append(f"strength.file = {_fmt(file)}: no such file ({path})")
-            return None, []
-        except (OSError, UnicodeDecodeError) as exc:
-            problems.append(f"strength.file = {_fmt(file)}: cannot read: {exc}")
-            return None, []
-        except ValueError as exc:
-            problems.append(f"strength.file = {_fmt(file)}: {exc}")
-            return None, []
-    notes = [f"strength.file = {_fmt(file)}: {w.message}" for w in caught]
-    return prof, notes
-
-
-def _size_problems(params: PSTParams, setup: PSTSetup) -> list[str]:
-    """Runs too large to allocate (a clean error instead of a MemoryError)."""
-    ppc = int(setup.particles_per_cell)
-    n = max(1.0, setup.length / setup.dx) * ppc
-    if setup.dim == 2:
-        n *= (3 if setup.lateral == "constrained" else max(1.0, setup.width / setup.dx)) * ppc
-    if n > MAX_PARTICLES:
-        return [
-            f"setup.length = {setup.length!r}: with setup.dx = {setup.dx!r} and "
-            f"setup.particles_per_cell = {ppc} the run has {n:.3g} particles: must be at "
-            f"most {MAX_PARTICLES:.0e}"
-        ]
-    return []
+    check = _TYPES["slope"][0] if kind == "slope" else _TYPES["pst"][0]
+    scn, notes = check(data, base_dir, problems)
+    return (None, problems, []) if problems else (scn, [], notes)
 
 
 # --------------------------------------------------------------------------- writing

@@ -36,7 +36,7 @@ PST sawing procedure) and the choices the paper leaves open, each stated here:
 `FIG12A` and `FIG12B` are the two cases (the shipped scenarios ``slope-generic-50x60`` and
 ``slope-generic-50x100`` describe the same fields and starts).
 
-`run_generic_slope` runs it through `damjax.scenarios.slope.simulate_slope` (the shared
+`run_generic_slope` runs it through `damjax.simulate_slope` (the shared
 2D step) and adds the up-slope arrest *position* (from the lower edge) to the summary,
 next to `upslope_arrest_distance_m` (from the start, along the surface).
 """
@@ -50,8 +50,8 @@ from typing import Any
 import jax
 import numpy as np
 
-from damjax.config import PSTParams
-from damjax.scenarios.slope import SlopeResult, SlopeSetup, simulate_slope
+from damjax.params import PSTParams, SlopeSetup
+from damjax.slope.simulation import SlopeResult, simulate_slope
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,261 +24,23 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from damjax import config, theory
-from damjax.config import (
-    G_ACC,
-    MIN_CELLS,
-    PSTParams,
-    check_problem_size,
-    field_problems,
-    param_problems,
-)
+from damjax import theory
+from damjax._version import __version__
+from damjax.constants import G_ACC
 from damjax.core.loop import integrate
-from damjax.core.state import FAULT_MESSAGES, Model, State, zero_components
+from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
+    SlopeLayout,
+    build_slope,
+    make_slope_layout,
+)
+from damjax.core.state import FAULT_MESSAGES, Model, State
 from damjax.core.step import column_height, fracture_strain
 from damjax.diagnostics import ARREST_QUIET
-from damjax.materials import mcc, weak_layer
-from damjax.scenarios.pst import SAW_LEAD
+from damjax.params import PSTParams, SlopeSetup
+from damjax.validation import ensure_x64, slope_problems
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
 SPEED_WINDOW_M = 4.0  # length of the sliding windows of the peak crack speed [m]
-
-
-@dataclasses.dataclass(frozen=True)
-class SlopeSetup:
-    """Numerics and geometry of a slope-scale run.
-
-    Attributes:
-        length: down-slope extent of the release area along the surface [m].
-        width: cross-slope extent [m].
-        dx: grid spacing [m].
-        duration: simulated time [s].
-        start: crack initiation point (x, y) [m] (x up-slope from the lower edge).
-        cfl: Courant number.
-        particles_per_cell: particles per cell and dimension.
-        dtype: "float32" or "float64".
-        chunk_steps: steps per jitted chunk (one snapshot per chunk).
-        p0_rule: MCC p0 rule (see `PSTSetup`).
-        mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
-    """
-
-    length: float = 50.0
-    width: float = 60.0
-    dx: float = 0.2
-    duration: float = 2.0
-    start: tuple[float, float] = (5.0, 30.0)
-    cfl: float = 0.5
-    particles_per_cell: int = 2
-    dtype: str = "float32"
-    chunk_steps: int = 100
-    p0_rule: str = "paper"
-    mcc_invariants: str = "3d"
-
-
-def _problems(
-    params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any, fall: Any = 0.0
-) -> list[str]:
-    out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
-    setup_out = field_problems(
-        setup,
-        ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps"),
-        ("dtype", "p0_rule", "mcc_invariants"),
-        with_flags=False,
-    )
-    if setup_out:  # the checks below need a valid grid
-        return out + setup_out
-    for name in ("length", "width"):
-        if getattr(setup, name) / setup.dx < MIN_CELLS:
-            out.append(
-                f"{name} = {getattr(setup, name)!r}: must be at least {MIN_CELLS} cells of "
-                f"dx = {setup.dx!r}, i.e. >= {MIN_CELLS * setup.dx:.4g} m"
-            )
-    if out:
-        return out
-    try:
-        x0, y0 = (float(c) for c in setup.start)
-    except (TypeError, ValueError):
-        return [f"start = {setup.start!r}: must be a point (x, y) [m]"]
-    x0, y0 = setup.start
-    if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
-        out.append(
-            f"start = {setup.start!r}: must lie in [0, {setup.length}] x [0, {setup.width}] m"
-        )
-    lam = float(theory.elastic_length(params)) if not out else 1.0
-    if not out and setup.dx > lam / 2:
-        out.append(f"dx = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m")
-    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
-    for name, arr, lo, hi in (
-        ("slope_deg", slope, 0.0, 90.0),
-        ("tau_peak", tau, 0.0, math.inf),
-        ("fall_deg", fall, -math.inf, math.inf),
-    ):
-        if arr is None:
-            continue
-        a = np.asarray(arr, dtype=float)
-        if a.ndim == 2 and a.shape != cells:
-            out.append(
-                f"{name} field: shape {a.shape} must be (nx, ny) = {cells}, the cells of "
-                f"length {setup.length} m x width {setup.width} m at dx {setup.dx} m"
-            )
-        elif a.ndim not in (0, 2) or not np.all(
-            np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))
-        ):
-            out.append(f"{name} field: must be a finite scalar or a 2D array (nx, ny)")
-        elif np.any(a <= lo) or np.any(a >= hi):
-            out.append(f"{name} field: values must be in ({lo}, {hi})")
-    return out
-
-
-@dataclasses.dataclass(frozen=True)
-class SlopeLayout:
-    grid_shape: tuple[int, int]
-    pad: tuple[int, int]  # cells below x = 0 and beside y = 0
-    n_cells: tuple[int, int]
-    n_chunks: int
-    chunk_steps: int
-
-    @property
-    def n_steps(self) -> int:
-        return self.n_chunks * self.chunk_steps
-
-
-def make_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float) -> SlopeLayout:
-    dx = setup.dx
-    nx, ny = int(round(setup.length / dx)), int(round(setup.width / dx))
-    psi, phi = math.radians(max_slope_deg), math.radians(float(params.friction_deg))
-    acc = max(G_ACC * (math.sin(psi) - math.cos(psi) * math.tan(phi)), 0.0)
-    slide = 0.5 * acc * setup.duration**2
-    pad_x = int(math.ceil((1.25 * slide + 1.0) / dx)) + 3
-    pad_y = int(math.ceil(0.25 * slide / dx)) + 4
-    c = float(theory.plane_stress_wave_speed(params)) + acc * setup.duration
-    dt_max = setup.cfl * dx / c
-    n_needed = max(1, int(math.ceil(setup.duration / dt_max)))
-    chunk = min(int(setup.chunk_steps), n_needed)  # a longer chunk would shrink dt
-    n_chunks = max(1, int(math.ceil(n_needed / chunk)))
-    shape = (pad_x + nx + pad_y, 2 * pad_y + ny)
-    ppc = int(setup.particles_per_cell)
-    check_problem_size(
-        nx * ny * ppc * ppc,
-        shape[0] * shape[1],
-        n_chunks,
-        np.dtype(setup.dtype).itemsize,
-        "length, width, dx, duration and particles_per_cell of the slope",
-    )
-    return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, chunk)
-
-
-def _bilinear(field: Any, xp: np.ndarray, yp: np.ndarray, dx: float) -> Any:
-    """Field given at cell centres (nx, ny), interpolated at (xp, yp) [m] (differentiable
-    in the field values: indices and weights are fixed numpy arrays)."""
-    f = jnp.asarray(field)
-    if f.ndim == 0:
-        return jnp.broadcast_to(f, xp.shape)
-    nx, ny = f.shape
-    gx = np.clip(xp / dx - 0.5, 0, nx - 1)
-    gy = np.clip(yp / dx - 0.5, 0, ny - 1)
-    i0 = np.minimum(np.floor(gx).astype(int), nx - 2 if nx > 1 else 0)
-    j0 = np.minimum(np.floor(gy).astype(int), ny - 2 if ny > 1 else 0)
-    tx, ty = gx - i0, gy - j0
-    i1, j1 = np.minimum(i0 + 1, nx - 1), np.minimum(j0 + 1, ny - 1)
-    return (
-        (1 - tx) * (1 - ty) * f[i0, j0]
-        + tx * (1 - ty) * f[i1, j0]
-        + (1 - tx) * ty * f[i0, j1]
-        + tx * ty * f[i1, j1]
-    )
-
-
-def build(
-    params: PSTParams,
-    setup: SlopeSetup,
-    layout: SlopeLayout,
-    slope_deg: Any,
-    tau_peak: Any,
-    fall_deg: Any = 0.0,
-) -> tuple[Model, State, np.ndarray, np.ndarray]:
-    """Model, initial state and the particles' reference positions (x, y) [m]."""
-    dtype = jnp.dtype(setup.dtype)
-    f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
-    dx, ppc = setup.dx, setup.particles_per_cell
-    nx, ny = layout.n_cells
-    sub = (np.arange(ppc) + 0.5) / ppc
-    cx, fx = np.repeat(np.arange(nx), ppc), np.tile(sub, nx)
-    cy, fy = np.repeat(np.arange(ny), ppc), np.tile(sub, ny)
-    cell0 = np.stack([np.repeat(cx, cy.size) + layout.pad[0], np.tile(cy, cx.size) + layout.pad[1]])
-    frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
-    xp = (cell0[0] - layout.pad[0] + frac0[0]) * dx
-    yp = (cell0[1] - layout.pad[1] + frac0[1]) * dx
-    n = xp.size
-    psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
-    fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
-    tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
-    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
-    _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
-    gs = G_ACC * jnp.sin(psi)
-    g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
-    phi = jnp.deg2rad(f(params.friction_deg))
-    x0, y0 = setup.start
-    plastic = bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
-    model = Model(
-        grid_shape=layout.grid_shape,
-        dx=float(dx),
-        periodic=(False, False),
-        lateral="free",
-        saw_stops=True,
-        cell0=jnp.asarray(cell0, jnp.int32),
-        frac0=jnp.asarray(frac0, dtype),
-        saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
-        dt=f(setup.duration / layout.n_steps),
-        density=f(params.density),
-        thickness=f(params.thickness),
-        area0=f((dx / ppc) ** 2),
-        youngs_modulus=f(params.youngs_modulus),
-        poisson=f(params.poisson),
-        plastic=plastic,
-        p0_init=mcc.p0_from_tensile_strength(
-            f(params.tensile_strength),
-            f(params.mcc_m),
-            f(params.mcc_beta),
-            setup.p0_rule,
-            setup.mcc_invariants,
-        ),
-        mcc_m=f(params.mcc_m),
-        mcc_beta=f(params.mcc_beta),
-        mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(params.slab_fracture_energy),
-        g_tangent=g_t,
-        g_normal=G_ACC * jnp.cos(psi),
-        stiffness=K,
-        tau_peak=tau_p,
-        softening=f(params.softening),
-        u_res=u_res,
-        friction=jnp.tan(phi),
-        saw_speed=f(params.saw_speed),
-        saw_lead=f(SAW_LEAD),
-        mcc_invariants=setup.mcc_invariants,
-    )
-    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
-    u0 = (f(params.density) * f(params.thickness) / K) * g_t
-    state = State(
-        u=u0,
-        v=jnp.zeros((2, n), dtype),
-        C=jnp.zeros((2, 2, n), dtype),
-        eps=zero_components(n, dtype),
-        sigma=zero_components(n, dtype),
-        eps_p=zero_components(n, dtype),
-        opening=jnp.zeros((n,), dtype),
-        t_fracture=jnp.full((n,), jnp.inf, dtype),
-        t_broken=jnp.full((n,), jnp.inf, dtype),
-        u_max=jnp.sqrt(jnp.sum(u0 * u0, axis=0)),
-        time=f(0.0),
-        saw_pos=f(0.0),
-        saw_active=jnp.asarray(True),
-        tip=f(0.0),
-        fault=jnp.asarray(0, jnp.int32),
-        fault_time=f(jnp.nan),
-    )
-    return model, state, xp, yp
 
 
 def _snapshot(model: Model, state: State) -> dict[str, Any]:
@@ -311,8 +73,6 @@ class SlopeResult:
         import json
 
         import xarray as xr
-
-        import damjax
 
         def var(dims: tuple[str, ...], data: Any, units: str, long_name: str) -> Any:
             return xr.Variable(dims, np.asarray(data), {"units": units, "long_name": long_name})
@@ -350,7 +110,7 @@ class SlopeResult:
             )
         ds.attrs = {
             "title": "damjax slope-scale release",
-            "damjax_version": damjax.__version__,
+            "damjax_version": __version__,
             "setup": json.dumps(dataclasses.asdict(self.setup)),
             "params": json.dumps(
                 {
@@ -454,19 +214,19 @@ def simulate_slope(
         progress: tqdm progress bar.
         state, start_chunk, history: resume from a saved state after ``start_chunk``
             chunks, with the per-chunk tip arrays and snapshots recorded before it (as
-            `damjax.scenarios.pst.simulate_pst`).
+            `damjax.simulate_pst`).
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
     setup = SlopeSetup() if setup is None else setup
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
-    problems = _problems(params, setup, slope_deg, tau_peak, fall_deg)
+    problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
-    config.ensure_x64(setup.dtype)
-    layout = make_layout(params, setup, float(np.max(slope_deg)))
-    model, state0, xp, yp = build(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    ensure_x64(setup.dtype)
+    layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
+    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,

@@ -1,0 +1,55 @@
+"""Scenario files: a whole run (physics, numerics, outputs) in one TOML file.
+
+- `schema`: the format common to every type (the document, ``[output]``, reading,
+  writing, the shipped `library/`), and `register` for the scenario types;
+- `pst`: ``type = "pst"`` (`damjax.PSTParams`, `damjax.PSTSetup`, ``[strength]`` CSV);
+- `slope`: ``type = "slope"`` (``[terrain]``, ``[strength]`` fields of a release area),
+  resolved to fields and run by `slope_fields`.
+
+``damjax.scenario.load("quick")`` reads a shipped scenario; `damjax.runner` runs one.
+"""
+
+from damjax.scenario import pst, slope  # noqa: F401  (each registers its scenario type)
+from damjax.scenario.schema import (
+    MAX_PARTICLES,
+    SCENARIO_TYPES,
+    SECTIONS,
+    STRENGTH_KEYS,
+    TOP_KEYS,
+    Output,
+    Scenario,
+    ScenarioWarning,
+    describe_shipped,
+    dubious,
+    dumps,
+    library_dir,
+    load,
+    loads,
+    parse,
+    problems,
+    register,
+    resolve,
+    shipped,
+)
+
+__all__ = [
+    "MAX_PARTICLES",
+    "SCENARIO_TYPES",
+    "SECTIONS",
+    "STRENGTH_KEYS",
+    "TOP_KEYS",
+    "Output",
+    "Scenario",
+    "ScenarioWarning",
+    "describe_shipped",
+    "dubious",
+    "dumps",
+    "library_dir",
+    "load",
+    "loads",
+    "parse",
+    "problems",
+    "register",
+    "resolve",
+    "shipped",
+]
