@@ -52,6 +52,30 @@ def strain_increment(C: Any, dt: Any, dim: int) -> tuple[Any, Any, Any]:
     return dt * C[0, 0], dt * C[1, 1], 0.5 * dt * (C[0, 1] + C[1, 0])
 
 
+def slip_and_rate(u: Any, v: Any, dim: int) -> tuple[Any, Any]:
+    """Slip |u| [m] and its rate d|u|/dt = u.v / |u| [m/s] per particle, rows (n,)."""
+    if dim == 1:
+        return jnp.abs(u[0]), jnp.sign(u[0]) * v[0]
+    u2 = u[0] * u[0] + u[1] * u[1]
+    pos = u2 > 0.0
+    slip = jnp.sqrt(jnp.where(pos, u2, 1.0))
+    rate = jnp.where(pos, (u[0] * v[0] + u[1] * v[1]) / slip, 0.0)
+    return jnp.where(pos, slip, 0.0), rate
+
+
+def front_width(model: Model) -> Any:
+    """Slip range [m] across a particle's segment of weak layer near a crack front
+    (`damjax.materials.weak_layer.front_width`), from the particle spacing and the
+    elastic length Lambda = sqrt(E h / ((1 - nu^2) K_wl))."""
+    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
+    lam = jnp.sqrt(
+        model.youngs_modulus
+        * model.thickness
+        / ((1.0 - model.poisson * model.poisson) * model.stiffness)
+    )
+    return weak_layer.front_width(model.u_res, spacing, lam)
+
+
 def broken_mask(model: Model, state: State) -> Any:
     """Where the weak layer has lost all cohesion (sawn or fully softened)."""
     cut = model.saw_coord < state.saw_pos
@@ -133,18 +157,31 @@ def step(model: Model, state: State) -> State:
     inv_d = 4.0 / dx**2  # MLS-MPM inverse inertia of the quadratic B-spline
 
     # 1. weak layer (cohesion only; friction is a grid-level cap below)
-    broken = broken_mask(model, state)
+    cut = model.saw_coord < state.saw_pos
     k_sec = weak_layer.cohesive_factor(
         state.u_max,
         model.tau_peak,
         residual_shear(model, state),
         model.stiffness,
         model.softening,
-        broken,
+        cut,
     )
+    # Failure without events: a particle's segment of weak layer fails progressively as
+    # the crack front crosses it, and cohesion acts on its intact part for the part of
+    # the step before the saw reaches it; friction acts on the rest. Averaged over the
+    # step, both make the impulse and the state after a failure continuous in its time
+    # (`damjax.materials.weak_layer`), so reverse mode carries the shift of every failure.
+    time = state.time + dt
+    saw_pos = jnp.where(state.saw_active, model.saw_speed * time, state.saw_pos)
+    slip, slip_rate = slip_and_rate(state.u, state.v, dim)
+    failed = weak_layer.failed_fraction_in_step(
+        state.u_max, slip, slip_rate, model.u_res, front_width(model), dt
+    )
+    unsawn = weak_layer.sawn_fraction(model.saw_coord, state.saw_pos, saw_pos)
+    intact = jnp.where(cut, 0.0, jnp.minimum(1.0 - failed, unsawn))
     J = slab.area_ratio(state.eps)
     # acceleration from gravity and cohesion; area0 / m = 1 / (rho h0)
-    acc = model.g_tangent - (J * k_sec / (model.density * model.thickness)) * state.u
+    acc = model.g_tangent - (J * k_sec * intact / (model.density * model.thickness)) * state.u
 
     # 2. P2G
     st = transfer.stencil(model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic)
@@ -165,7 +202,7 @@ def step(model: Model, state: State) -> State:
                 q = q + affine[a][b] * st.dpos[k][b]
             rows.append(st.w[k] * q)
         mom_rows.append(rows)
-    fcap = jnp.where(broken, m * model.friction * model.g_normal, 0.0)
+    fcap = (1.0 - intact) * (m * model.friction * model.g_normal)
     cap_rows = [st.w[k] * fcap for k in range(S)]
     # mass, momentum and cap in pairs through complex scatters (half the scatters)
     grids = transfer.p2g_channels(st, [mass_rows, *mom_rows, cap_rows], n_nodes)
@@ -224,8 +261,6 @@ def step(model: Model, state: State) -> State:
     u_max = jnp.maximum(state.u_max, slip)
 
     # 5. saw and crack tip
-    time = state.time + dt
-    saw_pos = jnp.where(state.saw_active, model.saw_speed * time, state.saw_pos)
     broken_new = weak_layer.is_broken(u_max, model.u_res, model.saw_coord < saw_pos)
     t_broken = jnp.where(broken_new & jnp.isinf(state.t_broken), time, state.t_broken)
     tip = jnp.max(jnp.where(broken_new, model.saw_coord, -jnp.inf))

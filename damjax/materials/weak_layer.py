@@ -11,6 +11,17 @@ the ground, acting on the slab's slope-parallel displacement u relative to the g
   tau_r = rho g h cos(psi) tan(phi) opposing sliding. Friction is applied on the grid as
   an impulse cap (a slab at rest stays at rest), see `damjax.core.step`.
 
+Failure is event-accurate in time. Losing cohesion at u_r is a jump of the traction (at
+delta = 0 the whole drop from tau_p to friction). Applied from the step after the slip
+crossed u_r, the state after the event would be a step function of the parameters: move
+theta a little and the layer fails at the same step with the same impulse, until it
+suddenly fails one step earlier, so reverse mode would miss the shift of every event and
+with it almost all of the crack's sensitivity at delta = 0. `intact_fraction` locates the
+crossing inside the step from the slip and its rate (the time-of-impact treatment of
+differentiable contact, as in DiffTaichi), and the step applies cohesion for that fraction
+of the step and friction for the rest. The impulse then moves continuously with the
+crossing time, and so does the state after each failure.
+
 Functions here are per-particle, elementwise, and safe for infinite tau_p (controlled
 runs, unbreakable layers) and delta = 0: no NaN in values or gradients.
 """
@@ -53,6 +64,69 @@ def cohesive_factor(
     k_soft = envelope / u_max_s
     k = jnp.where(softening_zone, k_soft, stiffness)
     return jnp.where(broken, 0.0, k)
+
+
+def _ramp_integral(z: Any) -> Any:
+    """Antiderivative of clip(z, 0, 1): 0, z^2 / 2, z - 1/2 (C1)."""
+    zc = jnp.clip(z, 0.0, 1.0)
+    return 0.5 * zc * zc + jnp.maximum(z - 1.0, 0.0)
+
+
+def front_width(u_break: Any, spacing: Any, elastic_length: Any) -> Any:
+    """Slip range w [m] over a particle's footprint where the crack front crosses it.
+
+    A particle stands for a segment of weak layer of length `spacing` [m]; near a crack
+    tip the slip falls off over the elastic length Lambda [m], so across the segment it
+    varies by about w = u_r spacing / Lambda. The segment fails progressively while its
+    centre slip goes from u_r - w/2 to u_r + w/2 (`failed_fraction`).
+    """
+    finite = jnp.isfinite(u_break)
+    return jnp.where(finite, u_break, 1.0) * (spacing / elastic_length)
+
+
+def failed_fraction(u: Any, u_break: Any, width: Any) -> Any:
+    """Failed fraction in [0, 1] of a particle's segment of weak layer at centre
+    (maximum) slip u [m]: the part of the segment whose slip, varying linearly by
+    `width` [m] across it, has reached u_break [m] (inf: never fails)."""
+    finite = jnp.isfinite(u_break)
+    u_b = jnp.where(finite, u_break, 1.0)
+    return jnp.where(finite, jnp.clip((u - u_b) / width + 0.5, 0.0, 1.0), 0.0)
+
+
+def failed_fraction_in_step(
+    u_max: Any, slip: Any, slip_rate: Any, u_break: Any, width: Any, dt: Any
+) -> Any:
+    """Failed fraction of a particle's segment averaged over a step of dt [s].
+
+    The slip [m] grows at slip_rate [m/s] through the step, the damage history u_max [m]
+    follows it once it passes, and the failed fraction is `failed_fraction` of that
+    history. The average over the step is exact for a linear slip path (the integral
+    of the clipped ramp), so the impulse of the step and the state after it move
+    continuously with the time at which the front crosses the particle, including a
+    front that crosses it within one step (time-of-impact treatment).
+    """
+    finite = jnp.isfinite(u_break)
+    u_b = jnp.where(finite, u_break, 1.0)
+    u_end = slip + jnp.maximum(slip_rate, 0.0) * dt
+    z_m = (u_max - u_b) / width + 0.5
+    z_e = (u_end - u_b) / width + 0.5
+    grows = z_e > z_m + 1e-6
+    # part of the step before the slip passes the history: failed fraction of u_max
+    den = jnp.where(grows, u_end - slip, 1.0)
+    t_pass = jnp.where(grows, jnp.clip((u_max - slip) / den, 0.0, 1.0), 1.0)
+    dz = jnp.where(grows, z_e - z_m, 1.0)
+    mean_ramp = (_ramp_integral(z_e) - _ramp_integral(z_m)) / dz
+    avg = t_pass * jnp.clip(z_m, 0.0, 1.0) + (1.0 - t_pass) * jnp.where(grows, mean_ramp, 0.0)
+    return jnp.where(finite, avg, 0.0)
+
+
+def sawn_fraction(coord: Any, saw_before: Any, saw_after: Any) -> Any:
+    """Fraction in [0, 1] of a step before a saw moving from saw_before to saw_after [m]
+    reaches a particle at saw coordinate coord [m] (1 ahead of it, 0 behind it)."""
+    moving = saw_after > saw_before
+    den = jnp.where(moving, saw_after - saw_before, 1.0)
+    s = jnp.clip((coord - saw_before) / den, 0.0, 1.0)
+    return jnp.where(moving, s, jnp.where(coord < saw_before, 0.0, 1.0))
 
 
 def strength_profile(x: Any, tau_peak: Any, steady_length: Any, gradient: Any) -> Any:
