@@ -13,6 +13,10 @@ millimetre differences of kilometre elevations. x and y are horizontal map coord
   `Terrain.resample` (bilinear) onto a simulation grid; `save_esri_ascii`, `save_netcdf`.
 - `Terrain.slope_deg`, `Terrain.aspect_deg`, `Terrain.gradient` (central differences) and
   `surface_distance` along a line.
+
+One module of ~620 lines on purpose: the class, the analytic profiles and the DEM readers
+and writers share one grid convention (ascending regular nodes, ``[ix, iy]``, float64) and
+one `_regular_spacing` check, and users find every terrain source in one place.
 """
 
 from __future__ import annotations
