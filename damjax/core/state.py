@@ -15,6 +15,9 @@ import equinox as eqx
 import jax.numpy as jnp
 
 FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture [-]
+# (without a particle lattice, `Model.lattice` = ()): with one, a fracture is an opening
+# of FRACTURE_OPENING or more (`damjax.core.step.fracture_opening`)
+FRACTURE_OPENING = 1e-3  # smallest band opening counted as a slab fracture [m]
 
 # fault codes raised by the runtime guards (bit flags)
 FAULT_NAN = 1
@@ -76,6 +79,13 @@ class Model(eqx.Module):
     saw_lead: Any  # the saw stops once the crack leads it by this much [m]
     # stress invariants of the MCC yield function ("3d" or "plane", see materials.mcc)
     mcc_invariants: str = eqx.field(static=True, default="3d")
+    # the particles as a regular lattice in their reference positions, x-major (particles
+    # per axis), its spacing [m], and the half-width in particles of the window over which
+    # the plastic opening strain is summed into a band opening [m]
+    # (`damjax.core.step.band_opening`); () : no lattice, opening = strain x dx
+    lattice: tuple[int, ...] = eqx.field(static=True, default=())
+    lattice_spacing: float = eqx.field(static=True, default=0.0)
+    opening_window: int = eqx.field(static=True, default=0)
 
     @property
     def dim(self) -> int:
@@ -104,7 +114,7 @@ class State(eqx.Module):
     sigma: Any  # (xx, yy, xy) rows (n,) of the depth-averaged in-plane stress [Pa]
     eps_p: Any  # (xx, yy, xy) rows (n,) of the in-plane plastic strain [-]
     opening: Any  # (n,) accumulated tensile plastic strain (fracture indicator) [-]
-    t_fracture: Any  # (n,) time opening first exceeded FRACTURE_STRAIN [s] (inf: never)
+    t_fracture: Any  # (n,) time the band opening first reached the fracture opening [s]
     t_broken: Any  # (n,) time the weak layer under the particle lost all cohesion [s]
     u_max: Any  # (n,) maximum slip reached (damage history) [m]
     time: Any  # [s]

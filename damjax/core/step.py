@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.ad_checkpoint import checkpoint_name
@@ -30,6 +31,7 @@ from damjax.core.state import (
     FAULT_EDGE,
     FAULT_NAN,
     FAULT_THICKNESS,
+    FRACTURE_OPENING,
     FRACTURE_STRAIN,
     Model,
     State,
@@ -131,23 +133,70 @@ def crack_band_opening(model: Model) -> Any:
     )
 
 
-def fracture_strain(model: Model) -> Any:
-    """Opening strain that marks a slab fracture: FRACTURE_STRAIN for a perfectly plastic
-    slab; with crack-band softening, the opening at which the band keeps 5 % of its
-    strength (w = 3 w_c), the same crack opening on every grid."""
+def band_opening(model: Model, opening: Any) -> Any:
+    """Opening w [m] of the tensile band through each particle, rows (n,).
+
+    With a particle lattice (`Model.lattice`), the plastic opening strain times the
+    particle spacing, summed over the particles within `Model.opening_window` of it along
+    x (in 2D also along y, and the smaller of the two sums: the sum across a band, not
+    along it). A localised band, one cell or a few wide, then has the same opening, its
+    displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
+    window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
+    strain times dx (one cell).
+    """
+    if not model.lattice:
+        return opening * model.dx
+    k = model.opening_window
+    o = opening * model.lattice_spacing
+    if model.dim == 1:
+        return jax.lax.reduce_window(o, 0.0, jax.lax.add, (2 * k + 1,), (1,), [(k, k)])
+    grid = jnp.reshape(o, model.lattice)
+    along_x = jax.lax.reduce_window(
+        grid, 0.0, jax.lax.add, (2 * k + 1, 1), (1, 1), [(k, k), (0, 0)]
+    )
+    along_y = jax.lax.reduce_window(
+        grid, 0.0, jax.lax.add, (1, 2 * k + 1), (1, 1), [(0, 0), (k, k)]
+    )
+    return jnp.reshape(jnp.minimum(along_x, along_y), o.shape)
+
+
+def fracture_opening(model: Model) -> Any:
+    """Band opening [m] that marks a slab fracture, per particle.
+
+    With a particle lattice: FRACTURE_OPENING (1 mm), or, with crack-band softening
+    where it is larger, the opening at which the band keeps 1 % of its strength
+    (ln(100) w_c), the same on every grid and for every slab model. Without a lattice
+    (older layouts): FRACTURE_STRAIN x dx for a perfectly plastic slab, 3 w_c with
+    softening.
+    """
     w_c = crack_band_opening(model)
-    return jnp.where(jnp.isfinite(w_c), 3.0 * w_c / model.dx, FRACTURE_STRAIN)
+    finite = jnp.isfinite(w_c)
+    if not model.lattice:
+        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * model.dx)
+    return jnp.where(
+        finite,
+        jnp.maximum(FRACTURE_OPENING, float(np.log(100.0)) * jnp.where(finite, w_c, 0.0)),
+        FRACTURE_OPENING,
+    )
+
+
+def fracture_strain(model: Model) -> Any:
+    """Opening strain that marks a slab fracture without a lattice (`fracture_opening` / dx)."""
+    return fracture_opening(model) / model.dx
 
 
 def _p0(model: Model, state: State) -> Any:
     """Current consolidation pressure, explicit in the previous step's plastic strains:
     SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
-    the band's opening (G_f; band width dx)."""
+    the band's opening (G_f; `band_opening`)."""
     bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    band = mcc.crack_band_factor(state.opening, model.dx, crack_band_opening(model))
-    return mcc.softened_p0(
-        model.p0_init * band, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk
-    )
+    p0 = model.p0_init
+    if model.plastic:
+        # only particles that opened themselves soften: the window's sum must not weaken an
+        # intact neighbour, which would then yield too and spread the band over a plateau
+        w = jnp.where(state.opening > 0.0, band_opening(model, state.opening), 0.0)
+        p0 = p0 * jnp.exp(-w / crack_band_opening(model))
+    return mcc.softened_p0(p0, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk)
 
 
 def step(model: Model, state: State) -> State:
@@ -249,12 +298,14 @@ def step(model: Model, state: State) -> State:
         model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True))
     )
     opening = state.opening + d_open
-    frac = fracture_strain(model)
-    t_fracture = jnp.where(
-        (opening >= frac) & ~(state.opening >= frac),
-        state.time + dt,
-        state.t_fracture,
-    )
+    if model.plastic:  # an elastic slab never fractures
+        t_fracture = jnp.where(
+            jnp.isinf(state.t_fracture) & (band_opening(model, opening) >= fracture_opening(model)),
+            state.time + dt,
+            state.t_fracture,
+        )
+    else:
+        t_fracture = state.t_fracture
     # rows added elementwise: XLA:CPU reduces over a short leading axis in a slow loop
     # (jnp.sum(u * u, axis=0) was 4.2 of 40 ms per 2D slope step, 300 000 particles)
     slip = jnp.sqrt(u_new[0] * u_new[0] + u_new[1] * u_new[1]) if dim > 1 else jnp.abs(u_new[0])
