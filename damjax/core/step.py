@@ -148,16 +148,17 @@ def band_opening(model: Model, opening: Any) -> Any:
         return opening * model.dx
     k = model.opening_window
     o = opening * model.lattice_spacing
+    # the sum over the window centred on each particle, then its largest value over the
+    # window: every particle of a band sees the band's whole opening, also near its edges
     if model.dim == 1:
-        return jax.lax.reduce_window(o, 0.0, jax.lax.add, (2 * k + 1,), (1,), [(k, k)])
+        w = jax.lax.reduce_window(o, 0.0, jax.lax.add, (2 * k + 1,), (1,), [(k, k)])
+        return jax.lax.reduce_window(w, -jnp.inf, jax.lax.max, (2 * k + 1,), (1,), [(k, k)])
     grid = jnp.reshape(o, model.lattice)
-    along_x = jax.lax.reduce_window(
-        grid, 0.0, jax.lax.add, (2 * k + 1, 1), (1, 1), [(k, k), (0, 0)]
-    )
-    along_y = jax.lax.reduce_window(
-        grid, 0.0, jax.lax.add, (1, 2 * k + 1), (1, 1), [(0, 0), (k, k)]
-    )
-    return jnp.reshape(jnp.minimum(along_x, along_y), o.shape)
+    along = []
+    for win, pad in (((2 * k + 1, 1), [(k, k), (0, 0)]), ((1, 2 * k + 1), [(0, 0), (k, k)])):
+        w = jax.lax.reduce_window(grid, 0.0, jax.lax.add, win, (1, 1), pad)
+        along.append(jax.lax.reduce_window(w, -jnp.inf, jax.lax.max, win, (1, 1), pad))
+    return jnp.reshape(jnp.minimum(along[0], along[1]), o.shape)
 
 
 def fracture_opening(model: Model) -> Any:

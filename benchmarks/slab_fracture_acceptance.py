@@ -1,0 +1,130 @@
+"""Slab fractures with a physical length scale: grid convergence and the paper's PST cases.
+
+One JSON line per run (case, slab model, theta, delta, seed, dx, arrest position, fractures
+with position, time and opening, crack-speed change per fracture, wall time), then one
+summary line per (case, theta) comparing the grids seed by seed: the same fracture count on
+every grid and positions within 0.5 m.
+
+    python -m benchmarks.slab_fracture_acceptance --theta 150 30 --seeds 0 1 2 3 4 \
+        --dx 0.04 0.02 0.01 > slab_fracture.jsonl
+
+Defaults: sigma_t 6 kPa read as the uniaxial tensile strength (``p0_rule = "uniaxial"``),
+delta 0, L_ss 20 m, 100 m, 3 s; the slab model's defaults for G_f, the strength field's
+coefficient of variation and correlation length (`damjax.materials.slab_fracture`).
+
+Measured (2026-11-24, 2 shared CPU cores; see the status notes for the full table):
+
+| case | dx [m] | seeds | fracture count | arrest [m] | paper |
+|---|---|---|---|---|---|
+| (filled in from the JSON lines of a run) | | | | | |
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+
+import damjax
+
+
+def run_one(args: argparse.Namespace, theta: float, seed: int, dx: float) -> dict:
+    params = damjax.PSTParams(
+        tensile_strength=args.sigma_t,
+        strength_gradient=theta,
+        softening=args.delta,
+        steady_length=args.steady_length,
+    )
+    if args.fracture_energy is not None:
+        params = dataclasses.replace(params, slab_fracture_energy=args.fracture_energy)
+    setup = damjax.PSTSetup(
+        length=args.length,
+        dx=dx,
+        duration=args.duration,
+        slab_fracture=args.slab_fracture,
+        seed=seed,
+        p0_rule=args.p0_rule,
+    )
+    t0 = time.perf_counter()
+    r = damjax.simulate_pst(params, setup)
+    s = r.summary
+    return {
+        "case": args.case,
+        "slab_fracture": args.slab_fracture,
+        "p0_rule": args.p0_rule,
+        "theta": theta,
+        "delta": args.delta,
+        "seed": seed,
+        "dx": dx,
+        "arrest_position_m": s["arrest_position_m"],
+        "final_tip_m": s["final_tip_m"],
+        "n_fractures": len(s["slab_fractures"]),
+        "slab_fractures": s["slab_fractures"],
+        "speed_changes": s.get("slab_fracture_speed_changes"),
+        "fault": s["fault"],
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
+def compare(rows: list[dict], tol: float = 0.5) -> dict:
+    """Per seed: same count on every grid and every position within ``tol`` [m]."""
+    seeds = sorted({r["seed"] for r in rows})
+    agree = 0
+    for seed in seeds:
+        runs = [r for r in rows if r["seed"] == seed]
+        counts = {r["n_fractures"] for r in runs}
+        ok = len(counts) == 1
+        if ok and len(runs) > 1:
+            ref = sorted(f["x_m"] for f in runs[0]["slab_fractures"])
+            for r in runs[1:]:
+                xs = sorted(f["x_m"] for f in r["slab_fractures"])
+                ok &= all(abs(a - b) <= tol for a, b in zip(ref, xs, strict=True))
+        agree += ok
+    arrests = [r["arrest_position_m"] for r in rows if r["arrest_position_m"] is not None]
+    counts = [r["n_fractures"] for r in rows]
+    return {
+        "summary": True,
+        "seeds": len(seeds),
+        "seeds_agreeing": agree,
+        "arrest_mean_m": sum(arrests) / len(arrests) if arrests else None,
+        "arrest_min_m": min(arrests) if arrests else None,
+        "arrest_max_m": max(arrests) if arrests else None,
+        "runs_through": sum(r["arrest_position_m"] is None for r in rows),
+        "count_mean": sum(counts) / len(counts) if counts else None,
+        "count_min": min(counts) if counts else None,
+        "count_max": max(counts) if counts else None,
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", default="fig8")
+    ap.add_argument("--theta", type=float, nargs="+", default=[150.0, 30.0])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    ap.add_argument("--dx", type=float, nargs="+", default=[0.04, 0.02, 0.01])
+    ap.add_argument("--delta", type=float, default=0.0)
+    ap.add_argument("--sigma-t", type=float, default=6000.0)
+    ap.add_argument("--steady-length", type=float, default=20.0)
+    ap.add_argument("--length", type=float, default=100.0)
+    ap.add_argument("--duration", type=float, default=3.0)
+    ap.add_argument("--slab-fracture", default="crack_band")
+    ap.add_argument("--p0-rule", default="uniaxial")
+    ap.add_argument("--fracture-energy", type=float, default=None)
+    args = ap.parse_args(argv)
+    for theta in args.theta:
+        rows = []
+        for dx in args.dx:
+            for seed in args.seeds:
+                row = run_one(args, theta, seed, dx)
+                rows.append(row)
+                print(json.dumps(row), flush=True)
+        summary = compare(rows)
+        summary.update(case=args.case, theta=theta, dx=args.dx)
+        print(json.dumps(summary), flush=True)
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
