@@ -37,9 +37,16 @@ _SETUP_FIELDS = [
     "chunk_steps",
     "dim",
     "width",
+    "slab_fracture",
+    "seed",
 ]
-_INT_FIELDS = {"particles_per_cell", "chunk_steps", "dim"}
-_STR_FIELDS = {"lateral", "dtype"}
+_INT_FIELDS = {"particles_per_cell", "chunk_steps", "dim", "seed"}
+_STR_FIELDS = {"lateral", "dtype", "slab_fracture"}
+# help of parameters whose default is None (the model's own)
+_NONE_HELP = {
+    "slab_fracture_energy": "default: the slab model's (--slab-fracture): 0.12 J/m^2 for "
+    "crack_band, none (perfectly plastic) for paper",
+}
 
 
 class _Parser(argparse.ArgumentParser):
