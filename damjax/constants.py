@@ -1,8 +1,9 @@
 """Physical constants and the named choices of the setups (a leaf: imports nothing).
 
 - `G_ACC`: gravitational acceleration [m/s^2];
-- `LATERAL_CONDITIONS`, `DTYPES`, `P0_RULES`, `MCC_INVARIANTS`: the valid values of the
-  string fields of `damjax.PSTSetup` / `damjax.SlopeSetup` (see their docstrings).
+- `LATERAL_CONDITIONS`, `DTYPES`, `P0_RULES`, `MCC_INVARIANTS`, `SLAB_FRACTURE_MODELS`: the
+  valid values of the string fields of `damjax.PSTSetup` / `damjax.SlopeSetup` (see their
+  docstrings).
 """
 
 from __future__ import annotations
@@ -13,3 +14,4 @@ LATERAL_CONDITIONS = ("free", "constrained")
 DTYPES = ("float32", "float64")
 P0_RULES = ("paper", "uniaxial")
 MCC_INVARIANTS = ("3d", "plane")
+SLAB_FRACTURE_MODELS = ("crack_band", "paper")  # see damjax.materials.slab_fracture

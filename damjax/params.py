@@ -46,12 +46,21 @@ class SnowParams(eqx.Module):
         mcc_beta: cohesion ratio beta of the MCC surface (tension/compression) [-].
         mcc_xi: softening coefficient xi of p0 with volumetric plastic strain [-]
             (SinhExpl law, `damjax.materials.mcc`); 0 is perfect plasticity.
-        slab_fracture_energy: fracture energy G_f of the slab's tensile fracture [J/m^2]
-            (crack-band softening, `damjax.materials.mcc.crack_band_factor`): p0 decays
-            as exp(-w / w_c) with the band's opening w = opening strain x dx and
-            w_c = G_f / sigma_y, so that a fracture dissipates G_f per unit crack area
-            on any grid. inf (default) is the paper's perfectly plastic slab, whose
-            fractures are grid-dependent.
+        slab_fracture_energy: fracture energy G_f of the slab's tensile fracture [J/m^2],
+            in (0, inf]. None (default): the slab model's own (`PSTSetup.slab_fracture`):
+            0.12 J/m^2 for "crack_band" (`damjax.materials.slab_fracture`, from the
+            fracture toughness of snow), none (perfectly plastic) for "paper". With
+            "crack_band", p0 decays as exp(-w / w_c) with the opening w [m] of the band
+            (summed across it over a window fixed in metres) and w_c = G_f / sigma_y, so
+            that a fracture dissipates G_f per unit crack area on any grid. With "paper", a
+            given G_f softens over one cell (w = opening strain x dx), as in earlier
+            versions: its fractures stay grid-dependent.
+        slab_strength_cov: coefficient of variation of the slab's tensile strength [-], in
+            [0, 1] (0: homogeneous; default 0.2, Kronholm and Schweizer 2003; see
+            `damjax.materials.slab_fracture`): sigma_t is a seeded log-normal random field
+            with mean ``tensile_strength`` ("crack_band" only; `PSTSetup.seed`).
+        slab_strength_length: correlation length of that field [m], in [0.2, 10]
+            (default 1 m, Kronholm, Schneebeli and Schweizer 2004).
         strength_profile: optional weak-layer strength tau_p [Pa] at m >= 2 equally
             spaced points spanning [0, length] of the PST, linearly interpolated at the
             particles (a differentiable array field; see `damjax.fields`). None (default)
@@ -80,7 +89,9 @@ class SnowParams(eqx.Module):
     mcc_m: Any = 0.3
     mcc_beta: Any = 1.2
     mcc_xi: Any = 0.0
-    slab_fracture_energy: Any = math.inf
+    slab_fracture_energy: Any = None
+    slab_strength_cov: Any = 0.2
+    slab_strength_length: Any = 1.0
     strength_profile: Any = None
     slope_profile: Any = None
 
@@ -118,6 +129,13 @@ class PSTSetup:
         mcc_invariants: stress invariants of the MCC yield function: "3d" (p = -tr/3 and
             the 3D von Mises q of the plane-stress tensor, sigma_zz = 0; the default) or
             "plane" (invariants of the 2D in-plane tensor). See `damjax.materials.mcc`.
+        slab_fracture: slab tensile fracture model (`damjax.materials.slab_fracture`), for
+            a finite tensile strength: "paper" (the default: the paper's homogeneous,
+            perfectly plastic slab, kept so that its figures stay reproducible) or
+            "crack_band" (fracture energy G_f and a random tensile-strength field: fractures
+            that converge with dx). Both count fractures from band openings.
+        seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band";
+            the same field on every dx).
     """
 
     length: float = 100.0
@@ -133,6 +151,8 @@ class PSTSetup:
     width: float = 0.3
     p0_rule: str = "paper"
     mcc_invariants: str = "3d"
+    slab_fracture: str = "paper"
+    seed: int = 0
 
 
 PSTParams = SnowParams  # the name users know (PST papers, earlier versions)
@@ -154,6 +174,9 @@ class SlopeSetup:
         chunk_steps: steps per jitted chunk (one snapshot per chunk).
         p0_rule: MCC p0 rule (see `PSTSetup`).
         mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
+        slab_fracture: slab fracture model, "paper" or "crack_band" (see `PSTSetup`; the
+            strength field is drawn over length x width).
+        seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band").
     """
 
     length: float = 50.0
@@ -167,3 +190,5 @@ class SlopeSetup:
     chunk_steps: int = 100
     p0_rule: str = "paper"
     mcc_invariants: str = "3d"
+    slab_fracture: str = "paper"
+    seed: int = 0

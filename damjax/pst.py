@@ -33,8 +33,14 @@ from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: pub
     time_step,
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State
-from damjax.core.step import broken_mask, column_height, fracture_strain, residual_shear
-from damjax.materials import weak_layer
+from damjax.core.step import (
+    band_opening,
+    broken_mask,
+    column_height,
+    fracture_strain,
+    residual_shear,
+)
+from damjax.materials import slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup
 from damjax.validation import ensure_x64, require_x64, validate
 
@@ -173,9 +179,7 @@ def finish(
     height = np.asarray(column_height(model, final))
     opening = np.asarray(final.opening)
     wl_shear = np.asarray(weak_layer_shear(model, final))
-    fractures = diagnostics.slab_fractures(
-        x_ref, opening, np.asarray(final.t_fracture), float(fracture_strain(model)), FRACTURE_GAP
-    )
+    fractures = slab_fractures(model, final)
     if layout.dim == 2:  # report the strip's average per x
         x_all = x_ref
         x_ref, sigma_xx, height, opening, wl_shear = _width_average(
@@ -212,7 +216,29 @@ def finish(
         timed_steps=info.steps_done,
     )
     result.summary["arrest_position_smooth_m"] = smooth
+    result.summary["slab_fracture_speed_changes"] = slab_fracture.speed_changes(
+        times, tips, fractures
+    )
     return result
+
+
+def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
+    """Slab fractures of a run, ``{x_m, t_s, opening_m}`` sorted by time: bands whose
+    opening [m] reached `damjax.core.step.fracture_opening`, bands closer than
+    `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`); the
+    same count for every slab model and grid. Models without a particle lattice (an
+    elastic slab) use the opening strain (`damjax.diagnostics.slab_fractures`)."""
+    x_ref = np.asarray(model.saw_coord)
+    if model.lattice:
+        w = np.asarray(band_opening(model, state.opening))
+        return slab_fracture.fractures(x_ref, w, np.asarray(state.t_fracture))
+    return diagnostics.slab_fractures(
+        x_ref,
+        np.asarray(state.opening),
+        np.asarray(state.t_fracture),
+        float(np.min(np.asarray(fracture_strain(model)))),
+        FRACTURE_GAP,
+    )
 
 
 def _width_average(x: np.ndarray, *fields: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -21,7 +21,14 @@ import jax
 import numpy as np
 
 from damjax import theory
-from damjax.constants import DTYPES, G_ACC, LATERAL_CONDITIONS, MCC_INVARIANTS, P0_RULES
+from damjax.constants import (
+    DTYPES,
+    G_ACC,
+    LATERAL_CONDITIONS,
+    MCC_INVARIANTS,
+    P0_RULES,
+    SLAB_FRACTURE_MODELS,
+)
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup, SlopeSetup
 
 
@@ -53,7 +60,11 @@ PARAM_RULES: dict[str, tuple[Any, str]] = {
     "mcc_beta": (_pos, "(0, inf)"),
     "mcc_xi": (_nonneg, "[0, inf)"),
     "slab_fracture_energy": (lambda v: v > 0, "(0, inf] J/m^2"),
+    "slab_strength_cov": (lambda v: 0 <= v <= 1, "[0, 1]"),
+    "slab_strength_length": (lambda v: 0.2 <= v <= 10.0, "[0.2, 10] m"),
 }
+# parameters whose None means "the model's default" (see `PSTParams`)
+OPTIONAL_PARAMS = ("slab_fracture_energy",)
 
 SETUP_RULES: dict[str, tuple[Any, str]] = {
     "length": (_pos, "(0, inf) m"),
@@ -65,6 +76,7 @@ SETUP_RULES: dict[str, tuple[Any, str]] = {
     "chunk_steps": (lambda v: 1 <= v <= 1e7 and float(v).is_integer(), "[1, 10^7], integers"),
     "dim": (lambda v: v in (1, 2), "{1, 2}"),
     "width": (_pos, "(0, inf) m"),
+    "seed": (lambda v: 0 <= v <= 2**31 - 1 and float(v).is_integer(), "[0, 2^31 - 1], integers"),
 }
 
 
@@ -150,6 +162,8 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
             bad = next(v for v in prof if math.isnan(v) or not 0 < v < 90)
             problems.append(_problem("slope_profile", bad, "(0, 90) deg (every value)"))
     for name, (ok, valid) in PARAM_RULES.items():
+        if name in OPTIONAL_PARAMS and getattr(params, name) is None:
+            continue
         values = _leaf_values(getattr(params, name))
         if values is None or not values:
             problems.append(_problem(name, getattr(params, name), valid + " (a number)"))
@@ -257,6 +271,7 @@ SETUP_CHOICES: dict[str, tuple[str, ...]] = {
     "p0_rule": P0_RULES,
     "mcc_invariants": MCC_INVARIANTS,
     "dtype": DTYPES,
+    "slab_fracture": SLAB_FRACTURE_MODELS,
 }
 
 
@@ -514,8 +529,8 @@ def slope_problems(
     out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
     setup_out = field_problems(
         setup,
-        ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps"),
-        ("dtype", "p0_rule", "mcc_invariants"),
+        ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps", "seed"),
+        ("dtype", "p0_rule", "mcc_invariants", "slab_fracture"),
         with_flags=False,
     )
     if setup_out:  # the checks below need a valid grid

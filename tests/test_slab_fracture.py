@@ -89,24 +89,36 @@ def test_infinite_fracture_energy_is_the_perfectly_plastic_slab(small_setup, arr
     assert not np.array_equal(a.sigma_xx, c.sigma_xx)
 
 
-def test_fracture_marker_follows_the_crack_opening():
-    # with crack-band softening a fracture is marked where the band keeps 5 % of its
-    # strength (w = 3 w_c), so the marker threshold on the opening strain scales as 1/dx
+def test_fracture_marker_is_an_opening_the_same_on_every_grid():
+    # a fracture is a band opening of max(1 mm, ln(100) w_c) [m] for both slab models and
+    # every dx: with G_f = 3 J/m^2 the band keeps 1 % of its strength beyond 1 mm
     from damjax import pst
-    from damjax.core.state import FRACTURE_STRAIN
-    from damjax.core.step import crack_band_opening, fracture_strain
+    from damjax.core.state import FRACTURE_OPENING
+    from damjax.core.step import crack_band_opening, fracture_opening
 
     out = {}
     for dx in (0.04, 0.02):
-        setup = PSTSetup(length=5.0, dx=dx, duration=0.01, chunk_steps=10)
-        for g_f in (0.3, math.inf):
-            params = PSTParams(tensile_strength=6000.0, slab_fracture_energy=g_f)
-            model = pst.build(params, setup, pst.make_layout(params, setup))[0]
-            out[dx, g_f] = float(fracture_strain(model))
-            if math.isfinite(g_f):
-                assert out[dx, g_f] * dx == pytest.approx(3.0 * float(crack_band_opening(model)))
-    assert out[0.04, math.inf] == out[0.02, math.inf] == pytest.approx(FRACTURE_STRAIN)
-    assert out[0.02, 0.3] == pytest.approx(2.0 * out[0.04, 0.3])
+        for model_name in ("paper", "crack_band"):
+            for g_f in (None, 0.3, 3.0):
+                setup = PSTSetup(
+                    length=5.0, dx=dx, duration=0.01, chunk_steps=10, slab_fracture=model_name
+                )
+                params = PSTParams(tensile_strength=6000.0, slab_fracture_energy=g_f)
+                model = pst.build(params, setup, pst.make_layout(params, setup))[0]
+                w = np.asarray(fracture_opening(model))
+                w_c = np.asarray(crack_band_opening(model))
+                expected = np.where(
+                    np.isfinite(w_c), np.maximum(FRACTURE_OPENING, np.log(100.0) * w_c), 1e-3
+                )
+                np.testing.assert_allclose(w, np.broadcast_to(expected, w.shape), rtol=1e-6)
+                out[dx, model_name, g_f] = float(np.mean(w))
+    for key in (("paper", None), ("paper", 0.3), ("crack_band", 0.3)):
+        assert out[(0.04, *key)] == out[(0.02, *key)] == pytest.approx(FRACTURE_OPENING)
+    assert out[0.04, "paper", 3.0] == pytest.approx(out[0.02, "paper", 3.0], rel=1e-6)
+    assert out[0.04, "paper", 3.0] > 4.0 * FRACTURE_OPENING
+    # with the random strength field w_c varies along the slab, the same on both grids
+    assert out[0.04, "crack_band", 3.0] == pytest.approx(out[0.02, "crack_band", 3.0], rel=0.02)
+    assert out[0.04, "crack_band", 3.0] != pytest.approx(out[0.04, "paper", 3.0], rel=1e-4)
 
 
 def test_fracture_energy_sweeps_like_any_parameter(small_setup, arresting_params):

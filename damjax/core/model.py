@@ -25,7 +25,7 @@ import numpy as np
 from damjax import theory
 from damjax.constants import G_ACC
 from damjax.core.state import Model, State, zero_components
-from damjax.materials import mcc, weak_layer
+from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
 from damjax.validation import check_problem_size, is_plastic, validate
 
@@ -186,6 +186,13 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         area0 = (dx / ppc) ** 2
     x_ref = (cell0[0] - layout.pad_cells + frac0[0]) * dx  # [m] along the PST
     n = x_ref.size
+    # the slab fracture model: the particles' lattice (band openings, fracture count) for
+    # every plastic slab; G_f and the tensile-strength field (`slab_fracture.strength_field`)
+    # for "crack_band"
+    lattice = (cx.size,) if layout.dim == 1 else (cx.size, cy.size)
+    y_ref = None if layout.dim == 1 else (cell0[1] - y0 + frac0[1]) * dx
+    extent = setup.length if layout.dim == 1 else (setup.length, cy.size * dx / ppc)
+    tensile, g_f, slab_kw = _slab_fracture(params, setup, plastic, lattice, x_ref, y_ref, extent)
 
     phi = jnp.deg2rad(f(params.friction_deg))
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
@@ -226,7 +233,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         poisson=f(params.poisson),
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            f(params.tensile_strength),
+            tensile,
             f(params.mcc_m),
             f(params.mcc_beta),
             setup.p0_rule,
@@ -235,7 +242,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(params.slab_fracture_energy),
+        fracture_energy=f(g_f),
         g_tangent=g_t,
         g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
         stiffness=K,
@@ -246,6 +253,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
+        **slab_kw,
     )
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
     u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
@@ -268,6 +276,57 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         fault_time=f(jnp.nan),
     )
     return model, state
+
+
+def _slab_fracture(
+    params: PSTParams,
+    setup: Any,
+    plastic: bool,
+    lattice: tuple[int, ...],
+    x_ref: np.ndarray,
+    y_ref: np.ndarray | None,
+    extent: float | tuple[float, float],
+    lattice_for_paper: bool = True,
+) -> tuple[Any, Any, dict[str, Any]]:
+    """The slab's tensile strength [Pa] (per particle for "crack_band"), its fracture
+    energy G_f [J/m^2] and the static `Model` fields of the slab fracture model
+    (`PSTSetup.slab_fracture`; `damjax.materials.slab_fracture`).
+
+    Every plastic slab gets the particles' lattice (x-major, ``lattice`` particles per
+    axis at spacing dx / ppc), so fractures are counted from band openings for every
+    model. "crack_band" adds the seeded strength field (mean ``tensile_strength``, CoV
+    ``slab_strength_cov``, correlation length ``slab_strength_length``, on a grid fixed in
+    metres over ``extent``) and G_f (default `slab_fracture.DEFAULT_FRACTURE_ENERGY`).
+    "paper" keeps sigma_t homogeneous and G_f as given (None: perfectly plastic). An
+    elastic slab gets none of it (the same model as without fracture models), nor does a
+    "paper" slab with ``lattice_for_paper`` False (the slope: fractures from strains).
+    """
+    dtype = jnp.dtype(setup.dtype)
+    crack_band = plastic and setup.slab_fracture == "crack_band"
+    g_f = params.slab_fracture_energy
+    if g_f is None:
+        g_f = slab_fracture.DEFAULT_FRACTURE_ENERGY if crack_band else math.inf
+    tensile = jnp.asarray(params.tensile_strength, dtype)
+    if not plastic or not (crack_band or lattice_for_paper):
+        return tensile, g_f, {}
+    spacing = setup.dx / int(setup.particles_per_cell)
+    kw = dict(
+        lattice=tuple(int(s) for s in lattice),
+        lattice_spacing=float(spacing),
+        opening_window=slab_fracture.opening_window(spacing),
+        crack_band=crack_band,
+    )
+    if crack_band:
+        tensile = slab_fracture.strength_field(
+            int(setup.seed),
+            tensile,
+            jnp.asarray(params.slab_strength_cov, dtype),
+            jnp.asarray(params.slab_strength_length, dtype),
+            jnp.asarray(x_ref, dtype),
+            extent,
+            None if y_ref is None else jnp.asarray(y_ref, dtype),
+        )
+    return tensile, g_f, kw
 
 
 def check_layout(params: PSTParams, setup: PSTSetup, layout: Layout) -> None:
@@ -388,6 +447,19 @@ def build_slope(
     xp = (cell0[0] - layout.pad[0] + frac0[0]) * dx
     yp = (cell0[1] - layout.pad[1] + frac0[1]) * dx
     n = xp.size
+    # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
+    # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
+    plastic_slab = is_plastic(params) is not False  # traced: plastic (elastic: no lattice)
+    tensile, g_f, slab_kw = _slab_fracture(
+        params,
+        setup,
+        plastic_slab,
+        (nx * ppc, ny * ppc),
+        xp,
+        yp,
+        (setup.length, setup.width),
+        lattice_for_paper=False,
+    )
     psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
     fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
     tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
@@ -415,7 +487,7 @@ def build_slope(
         poisson=f(params.poisson),
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            f(params.tensile_strength),
+            tensile,
             f(params.mcc_m),
             f(params.mcc_beta),
             setup.p0_rule,
@@ -424,7 +496,7 @@ def build_slope(
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(params.slab_fracture_energy),
+        fracture_energy=f(g_f),
         g_tangent=g_t,
         g_normal=G_ACC * jnp.cos(psi),
         stiffness=K,
@@ -435,6 +507,7 @@ def build_slope(
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
+        **slab_kw,
     )
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
     u0 = (f(params.density) * f(params.thickness) / K) * g_t

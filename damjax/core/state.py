@@ -86,6 +86,10 @@ class Model(eqx.Module):
     lattice: tuple[int, ...] = eqx.field(static=True, default=())
     lattice_spacing: float = eqx.field(static=True, default=0.0)
     opening_window: int = eqx.field(static=True, default=0)
+    # slab fracture model (`damjax.materials.slab_fracture`): True for "crack_band" (p0
+    # softens with the band opening, needs the lattice), False for "paper" (with a finite
+    # G_f it softens with the opening strain x dx, one cell)
+    crack_band: bool = eqx.field(static=True, default=False)
 
     @property
     def dim(self) -> int:

@@ -189,14 +189,17 @@ def fracture_strain(model: Model) -> Any:
 def _p0(model: Model, state: State) -> Any:
     """Current consolidation pressure, explicit in the previous step's plastic strains:
     SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
-    the band's opening (G_f; `band_opening`)."""
+    the band's opening (G_f): `band_opening` for the "crack_band" slab, the opening
+    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f."""
     bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    p0 = model.p0_init
-    if model.plastic:
+    w_c = crack_band_opening(model)
+    if model.crack_band and model.lattice:
         # only particles that opened themselves soften: the window's sum must not weaken an
         # intact neighbour, which would then yield too and spread the band over a plateau
         w = jnp.where(state.opening > 0.0, band_opening(model, state.opening), 0.0)
-        p0 = p0 * jnp.exp(-w / crack_band_opening(model))
+        p0 = model.p0_init * jnp.exp(-w / w_c)
+    else:
+        p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
     return mcc.softened_p0(p0, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk)
 
 

@@ -49,8 +49,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import fields
+from damjax.constants import SLAB_FRACTURE_MODELS  # noqa: F401  (the choices, public here)
 
-SLAB_FRACTURE_MODELS = ("crack_band", "paper")
 DEFAULT_FRACTURE_ENERGY = 0.12  # G_f [J/m^2]
 DEFAULT_STRENGTH_COV = 0.2  # coefficient of variation of sigma_t [-]
 DEFAULT_STRENGTH_LENGTH = 1.0  # correlation length of sigma_t [m]

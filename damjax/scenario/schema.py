@@ -26,6 +26,9 @@ Format (SI units throughout; angles in degrees)::
     strength_gradient = 500.0     # strength gradient theta beyond L_ss [Pa/m]
     softening = 0.0               # softening coefficient delta [-]
     tensile_strength = inf        # slab tensile strength sigma_t [Pa]; inf: elastic slab
+    slab_fracture_energy = 0.12   # G_f [J/m^2] (default: the slab model's, see PSTParams)
+    slab_strength_cov = 0.2       # coefficient of variation of sigma_t, [0, 1]
+    slab_strength_length = 1.0    # its correlation length [m], [0.2, 10]
     saw_speed = 6.0               # saw (or controlled cut) speed [m/s]
     # ... and any other PSTParams field (mcc_m, mcc_beta, ...; see its docstring)
 
@@ -42,6 +45,10 @@ Format (SI units throughout; angles in degrees)::
     dim = 1                       # 1 (strip) or 2 (2D step on a strip)
     width = 0.3                   # strip width for dim = 2 [m]
     p0_rule = "paper"             # "paper" or "uniaxial"
+    slab_fracture = "paper"       # "paper" (perfectly plastic) or "crack_band" (G_f and a
+                                  # random sigma_t field: params.slab_fracture_energy,
+                                  # slab_strength_cov, slab_strength_length)
+    seed = 0                      # integer, picks the sigma_t field ("crack_band")
 
     [strength]                    # optional: tau_p from a CSV (columns x_m, tau_peak_pa)
     file = "profile.csv"          # relative to the scenario file's folder
@@ -85,7 +92,13 @@ from typing import Any
 
 import numpy as np
 
-from damjax.constants import DTYPES, LATERAL_CONDITIONS, MCC_INVARIANTS, P0_RULES
+from damjax.constants import (
+    DTYPES,
+    LATERAL_CONDITIONS,
+    MCC_INVARIANTS,
+    P0_RULES,
+    SLAB_FRACTURE_MODELS,
+)
 from damjax.params import PSTParams, PSTSetup
 from damjax.validation import NO_CLI_FLAG, PARAM_RULES, SETUP_RULES
 
@@ -356,6 +369,7 @@ _CHOICES = {
     "dtype": DTYPES,
     "p0_rule": P0_RULES,
     "mcc_invariants": MCC_INVARIANTS,
+    "slab_fracture": SLAB_FRACTURE_MODELS,
 }
 
 

@@ -24,6 +24,8 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     dtype = "float32"           # "float32" or "float64"
     chunk_steps = 100           # steps per jitted chunk (one animation frame each)
     p0_rule = "paper"           # "paper" or "uniaxial"
+    slab_fracture = "paper"     # "paper" or "crack_band" (G_f, random sigma_t field)
+    seed = 0                    # picks the sigma_t field ("crack_band"), integer
 
     [terrain]                   # optional (default: kind = "plane")
     kind = "plane"              # "plane": slope_deg [deg] (default params.slope_deg)
@@ -81,7 +83,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.constants import DTYPES, G_ACC, MCC_INVARIANTS, P0_RULES
+from damjax.constants import DTYPES, G_ACC, MCC_INVARIANTS, P0_RULES, SLAB_FRACTURE_MODELS
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
 from damjax.scenario.schema import (
     MAX_PARTICLES,
@@ -308,7 +310,16 @@ def check(
             sbad.add("start")
         else:
             svals["start"] = (float(st[0]), float(st[1]))
-    for key in ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps"):
+    for key in (
+        "length",
+        "width",
+        "dx",
+        "duration",
+        "cfl",
+        "particles_per_cell",
+        "chunk_steps",
+        "seed",
+    ):
         if key in svals and key not in sbad:
             ok, valid = SETUP_RULES[key]
             v = svals[key]
@@ -319,6 +330,7 @@ def check(
         ("dtype", DTYPES),
         ("p0_rule", P0_RULES),
         ("mcc_invariants", MCC_INVARIANTS),
+        ("slab_fracture", SLAB_FRACTURE_MODELS),
     ):
         if key in svals and key not in sbad and svals[key] not in choices:
             valid = "{" + ", ".join(f'"{c}"' for c in choices) + "}"
