@@ -8,9 +8,11 @@ every grid and positions within 0.5 m.
     python -m benchmarks.slab_fracture_acceptance --theta 150 30 --seeds 0 1 2 3 4 \
         --dx 0.04 0.02 0.01 > slab_fracture.jsonl
 
-Defaults: sigma_t 6 kPa read as the uniaxial tensile strength (``p0_rule = "uniaxial"``),
+Defaults: sigma_t 6 kPa with the setup's default p0 rule (``p0_rule = "paper"``, the
+paper's Eq. 6 as printed, with which the "paper" slab gives the paper's 94 m and 34 m),
 delta 0, L_ss 20 m, 100 m, 3 s; the slab model's defaults for G_f, the strength field's
-coefficient of variation and correlation length (`damjax.materials.slab_fracture`).
+coefficient of variation and correlation length (`damjax.materials.slab_fracture`);
+``--fracture-energy``, ``--strength-cov`` and ``--strength-length`` override them.
 
 Measured (2026-11-24, 2 shared CPU cores; see the status notes for the full table):
 
@@ -39,6 +41,10 @@ def run_one(args: argparse.Namespace, theta: float, seed: int, dx: float) -> dic
     )
     if args.fracture_energy is not None:
         params = dataclasses.replace(params, slab_fracture_energy=args.fracture_energy)
+    if args.strength_cov is not None:
+        params = dataclasses.replace(params, slab_strength_cov=args.strength_cov)
+    if args.strength_length is not None:
+        params = dataclasses.replace(params, slab_strength_length=args.strength_length)
     setup = damjax.PSTSetup(
         length=args.length,
         dx=dx,
@@ -54,6 +60,10 @@ def run_one(args: argparse.Namespace, theta: float, seed: int, dx: float) -> dic
         "case": args.case,
         "slab_fracture": args.slab_fracture,
         "p0_rule": args.p0_rule,
+        "slab_fracture_energy": params.slab_fracture_energy,
+        "slab_strength_cov": params.slab_strength_cov,
+        "slab_strength_length": params.slab_strength_length,
+        "length": args.length,
         "theta": theta,
         "delta": args.delta,
         "seed": seed,
@@ -64,6 +74,8 @@ def run_one(args: argparse.Namespace, theta: float, seed: int, dx: float) -> dic
         "slab_fractures": s["slab_fractures"],
         "speed_changes": s.get("slab_fracture_speed_changes"),
         "fault": s["fault"],
+        "n_steps": s["n_steps"],
+        "run_time_s": s["wall_time_s"],
         "wall_s": time.perf_counter() - t0,
     }
 
@@ -110,8 +122,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--length", type=float, default=100.0)
     ap.add_argument("--duration", type=float, default=3.0)
     ap.add_argument("--slab-fracture", default="crack_band")
-    ap.add_argument("--p0-rule", default="uniaxial")
+    ap.add_argument("--p0-rule", default="paper")
     ap.add_argument("--fracture-energy", type=float, default=None)
+    ap.add_argument("--strength-cov", type=float, default=None)
+    ap.add_argument("--strength-length", type=float, default=None)
     args = ap.parse_args(argv)
     for theta in args.theta:
         rows = []
