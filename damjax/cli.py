@@ -62,6 +62,23 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+class _StoreGiven(argparse.Action):
+    """``store``, remembering that the flag was given (``ns.given``): a snow profile's
+    values give way only to the parameter flags written on the command line."""
+
+    def __call__(self, parser: Any, ns: argparse.Namespace, values: Any, opt: Any = None) -> None:
+        setattr(ns, self.dest, values)
+        given = set(getattr(ns, "given", ()) or ())
+        ns.given = given | {self.dest}
+
+
+def _weak_layer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a layer index (an integer)") from None
+
+
 def _enable_compilation_cache() -> None:
     """Persistent XLA cache: repeated CLI runs skip most of the compilation."""
     import jax
@@ -86,8 +103,40 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
             dest=name,
             type=_number,
             default=getattr(defaults_p, name),
+            action=_StoreGiven,
             help=f"default {getattr(defaults_p, name)}",
         )
+    g = p.add_argument_group(
+        "snow profile (slab thickness, density, E(rho), slope and weak-layer strength from "
+        "a CAAML 6 or SNOWPACK .pro file; parameter flags given here win)"
+    )
+    g.add_argument(
+        "--profile",
+        metavar="FILE",
+        default=None,
+        help="snow profile: CAAML 6 (.xml/.caaml, needs damjax[profiles]) or SNOWPACK .pro",
+    )
+    g.add_argument(
+        "--weak-layer",
+        dest="weak_layer",
+        metavar="N",
+        type=_weak_layer,
+        default=None,
+        help="index of the weak layer (0 = top layer; default: the CAAML layer of concern)",
+    )
+    g.add_argument(
+        "--modulus",
+        choices=("scapozza", "gerling", "bergfeld"),
+        default="scapozza",
+        help="E(rho) relation for the slab (default scapozza)",
+    )
+    g.add_argument(
+        "--profile-date",
+        metavar="ISO",
+        default=None,
+        help="the profile at this time (SNOWPACK .pro time series; default the last one)",
+    )
+    g = p.add_argument_group("strength profile along the PST")
     g.add_argument(
         "--strength-profile",
         dest="strength_profile",
@@ -168,11 +217,45 @@ def _with_strength_profile(params: PSTParams, setup: PSTSetup, path: str, fit: s
     return dataclasses.replace(params, strength_profile=prof)
 
 
+def _params_from_profile(ns: argparse.Namespace) -> PSTParams:
+    """PSTParams from ``--profile`` (`snow_profiles.pst_params`), the parameter flags given
+    on the command line winning; one note on stderr with what the profile set."""
+    from damjax import snow_profiles
+
+    given = {name: getattr(ns, name) for name in sorted(getattr(ns, "given", ()) or ())}
+    try:
+        params = snow_profiles.pst_params(
+            ns.profile,
+            ns.weak_layer,
+            modulus=ns.modulus,
+            date=ns.profile_date,
+            **given,
+        )
+    except (FileNotFoundError, ImportError) as exc:
+        raise ValueError(f"--profile {exc}") from None
+    except ValueError as exc:
+        msg = str(exc).replace("weak_layer = ", "--weak-layer ")
+        raise ValueError(f"--profile {msg}" if "--weak-layer" not in msg else msg) from None
+    set_ = [
+        f"{k} = {float(getattr(params, k)):.4g}"
+        for k in ("thickness", "density", "youngs_modulus", "slope_deg", "tau_peak")
+        if k not in given and float(getattr(params, k)) != float(getattr(PSTParams(), k))
+    ]
+    sys.stderr.write(f"damjax: profile {ns.profile}: {', '.join(set_)}\n")
+    return params
+
+
 def cmd_pst(ns: argparse.Namespace) -> int:
     from damjax import io
     from damjax.pst import simulate_pst
 
-    params = PSTParams(**{name: getattr(ns, name) for name in _SCALAR_PARAM_FIELDS})
+    if ns.profile is None:
+        for flag, v in (("--weak-layer", ns.weak_layer), ("--profile-date", ns.profile_date)):
+            if v is not None:
+                raise ValueError(f"{flag} {v}: needs --profile FILE")
+        if ns.modulus != "scapozza":
+            raise ValueError(f"--modulus {ns.modulus}: needs --profile FILE")
+        params = PSTParams(**{name: getattr(ns, name) for name in _SCALAR_PARAM_FIELDS})
     setup = _setup_from(ns)
     if ns.strength_fit != "none" and ns.strength_profile is None:
         raise ValueError(f"--strength-fit {ns.strength_fit}: needs --strength-profile FILE")
@@ -186,6 +269,8 @@ def cmd_pst(ns: argparse.Namespace) -> int:
     _enable_compilation_cache()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        if ns.profile is not None:
+            params = _params_from_profile(ns)
         if ns.strength_profile is not None:
             params = _with_strength_profile(params, setup, ns.strength_profile, ns.strength_fit)
         result = simulate_pst(params, setup, progress=not ns.quiet)

@@ -8,12 +8,14 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from damjax import snow_profiles as sp
+from damjax import theory
 
 DATA = Path(__file__).parent / "data" / "profiles"
 CAAML = DATA / "snowpilot-21449.caaml.xml"
@@ -187,3 +189,131 @@ def test_pro_reader_matches_snowpat():
         np.testing.assert_allclose(dens, pack["0502"])
         st = np.array([ly.shear_strength for ly in ours.layers])[::-1]
         np.testing.assert_allclose(st, np.asarray(pack["0601"]) * 1e3)
+
+
+# --------------------------------------------------------------------------- CLI, scenarios
+
+# one small PST for every run below (one compilation): 2 m, dx 1 cm (the .pro slab's
+# Lambda is 6.5 cm), 0.2 s
+RUN_FLAGS = ["--length", "2", "--dx", "0.01", "--duration", "0.2", "--steady-length", "1"]
+
+
+def _cli(capsys, *argv: str) -> tuple[int, str, str]:
+    from damjax import cli
+
+    rc = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+@pytest.mark.parametrize(
+    ("path", "extra", "expect"),
+    [
+        # the CAAML pit has no strength: tau_peak from the command line (tau_g 1136 Pa)
+        (CAAML, ["--tau-peak", "2000"], {"thickness": 0.9, "slope_deg": 33.0}),
+        # the .pro slab above element 7; its 0601 strength; --slope-deg given wins
+        (PRO, ["--weak-layer", "7", "--slope-deg", "38"], {"tau_peak": 250.0, "slope_deg": 38}),
+    ],
+    ids=["caaml", "pro"],
+)
+def test_cli_pst_runs_a_profile(capsys, path, extra, expect):
+    if path == CAAML:
+        pytest.importorskip("snowpylot")
+    rc, out, err = _cli(capsys, "pst", "--profile", str(path), *extra, *RUN_FLAGS, "--json")
+    assert rc == 0, err
+    summary = json.loads(out)
+    kw = {"slope_deg": 38.0} if path == PRO else {"tau_peak": 2000.0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the .pro slab's densities: checked in err below
+        params = sp.pst_params(path, 7 if path == PRO else None, steady_length=1.0, **kw)
+    for name, value in expect.items():
+        assert float(getattr(params, name)) == pytest.approx(value)
+    # the run used the profile's slab: its wave speed and theoretical a_c are those of
+    # params (thickness, density, E, slope and tau_peak all enter a_c)
+    assert summary["shear_wave_speed_m_per_s"] == pytest.approx(
+        float(theory.shear_wave_speed(params)), rel=1e-6
+    )
+    assert summary["critical_cut_length_theory_m"] == pytest.approx(
+        float(theory.critical_cut_length(params)), rel=1e-6
+    )
+    assert summary["n_steps"] > 0 and summary["fault"] is None
+    assert f"damjax: profile {path}: thickness = " in err
+    if path == PRO:
+        assert "slope_deg" not in err.splitlines()[0]  # given on the command line
+        assert "extrapolated" in err
+
+
+def test_cli_profile_errors_are_one_line(capsys, tmp_path):
+    rc, _, err = _cli(capsys, "pst", "--weak-layer", "3")
+    assert rc == 2 and err.strip() == "damjax: error: --weak-layer 3: needs --profile FILE"
+    rc, _, err = _cli(capsys, "pst", "--profile", str(PRO), "--weak-layer", "40")
+    assert rc == 2 and "--weak-layer 40: must be an integer in [1, 17]" in err
+    assert len(err.strip().splitlines()) == 1
+    rc, _, err = _cli(capsys, "pst", "--profile", str(tmp_path / "none.pro"))
+    assert rc == 2 and "--profile" in err and "no such file" in err
+    rc, _, err = _cli(capsys, "pst", "--profile", str(PRO), "--weak-layer", "x")
+    assert rc == 2 and "'x' is not a layer index" in err
+
+
+SCENARIO = """
+type = "pst"
+name = "profile-test"
+
+[params]
+steady_length = 1.0
+slope_deg = 38.0
+
+[setup]
+length = 2.0
+dx = 0.01
+duration = 0.2
+
+[profile]
+file = "{file}"
+weak_layer = 7
+date = "2017-11-14T12:00"
+
+[output]
+plot = false
+snapshots = false
+"""
+
+
+def test_scenario_profile_table(tmp_path, capsys):
+    from damjax import scenario
+
+    shutil.copy(PRO, tmp_path / "station.pro")
+    path = tmp_path / "scn.toml"
+    path.write_text(SCENARIO.format(file="station.pro"))  # relative to the scenario file
+    with pytest.warns(scenario.ScenarioWarning, match="profile.file = .*extrapolated"):
+        scn = scenario.load(path)
+    with pytest.warns(UserWarning):
+        want = sp.pst_params(PRO, 7, slope_deg=38.0, steady_length=1.0)
+    for name in ("thickness", "density", "youngs_modulus", "tau_peak"):
+        assert float(getattr(scn.params, name)) == pytest.approx(float(getattr(want, name)))
+    assert float(scn.params.slope_deg) == 38.0  # [params] wins over the profile
+    # the resolved scenario is self-contained: its TOML has the values, not the table
+    again = scenario.loads(scn.to_toml())
+    assert float(again.params.thickness) == pytest.approx(float(want.thickness))
+    # bad tables: one line per key, naming it
+    bad = SCENARIO.format(file="station.pro").replace("weak_layer = 7", "weak_layer = 99")
+    bad = bad.replace('date = "2017-11-14T12:00"', 'modulus = "x"\nvertikal = true')
+    with pytest.raises(ValueError) as exc:
+        scenario.loads(bad, base_dir=tmp_path)
+    msg = str(exc.value)
+    assert "profile.modulus = 'x'" in msg or 'profile.modulus = "x"' in msg
+    assert "profile.vertikal: unknown key (did you mean 'profile.vertical'?)" in msg
+    bad = SCENARIO.format(file="station.pro").replace("weak_layer = 7", "weak_layer = 99")
+    with pytest.raises(ValueError, match=r"profile.weak_layer = 99: must be an integer in \[1, "):
+        scenario.loads(bad, base_dir=tmp_path)
+    with pytest.raises(ValueError, match="profile.file = .*no such file"):
+        scenario.loads(SCENARIO.format(file="none.pro"), base_dir=tmp_path)
+    slope = 'type = "slope"\nname = "s"\n[profile]\nfile = "x.pro"\n'
+    with pytest.raises(ValueError, match='profile: only for type = "pst"'):
+        scenario.loads(slope)
+    # and it runs from the CLI
+    rc, out, err = _cli(capsys, "run", str(path), "--out", str(tmp_path / "run"), "--json")
+    assert rc == 0, err
+    assert json.loads(out)["critical_cut_length_theory_m"] == pytest.approx(
+        float(theory.critical_cut_length(scn.params)), rel=1e-6
+    )

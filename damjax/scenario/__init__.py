@@ -12,6 +12,7 @@
 from damjax.scenario import pst, slope  # noqa: F401  (each registers its scenario type)
 from damjax.scenario.schema import (
     MAX_PARTICLES,
+    PROFILE_KEYS,
     SCENARIO_TYPES,
     SECTIONS,
     STRENGTH_KEYS,
@@ -36,6 +37,7 @@ __all__ = [
     "MAX_PARTICLES",
     "SCENARIO_TYPES",
     "SECTIONS",
+    "PROFILE_KEYS",
     "STRENGTH_KEYS",
     "TOP_KEYS",
     "Output",

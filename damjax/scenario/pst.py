@@ -18,6 +18,7 @@ from damjax import fields
 from damjax.params import PSTParams, PSTSetup
 from damjax.scenario.schema import (
     MAX_PARTICLES,
+    PROFILE_KEYS,
     STRENGTH_KEYS,
     Output,
     Scenario,
@@ -41,6 +42,9 @@ def check(
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)
 
     reported = {f"params.{k}" for k in pbad} | {f"setup.{k}" for k in sbad}
+    profile_notes: list[str] = []
+    if "profile" in data:
+        pvals, profile_notes = _profile_values(data["profile"], pvals, base_dir, problems)
     params = PSTParams(**pvals)
     setup = PSTSetup(**svals)
     strength_notes: list[str] = []
@@ -71,12 +75,88 @@ def check(
         output=Output(**ovals),
         type="pst",
     )
-    return scn, strength_notes + dubious(params, setup, pgiven, style="toml")
+    notes = profile_notes + strength_notes
+    return scn, notes + dubious(params, setup, pgiven, style="toml")
 
 
 def warn_resolution(scn: Scenario) -> None:
     """`damjax.validation.validate`'s warnings that are not dubious values (dx > Lambda/5)."""
     validate(scn.params, scn.setup, warn_dubious=False)
+
+
+def _profile_values(
+    table: Any, pvals: dict[str, Any], base_dir: str | Path | None, problems: list[str]
+) -> tuple[dict[str, Any], list[str]]:
+    """``pvals`` with the ``[profile]`` table's slab (`damjax.snow_profiles.pst_params`:
+    thickness, density, youngs_modulus, slope_deg, tau_peak) under the keys written in
+    ``[params]``, and the reader's warnings as notes; ``pvals`` unchanged on problems."""
+    from damjax import snow_profiles
+
+    if not isinstance(table, dict):
+        problems.append(f"profile = {_fmt(table)}: must be a table ([profile])")
+        return pvals, []
+    n0 = len(problems)
+    for key in table:
+        if key not in PROFILE_KEYS:
+            hit = difflib.get_close_matches(key, PROFILE_KEYS, n=1)
+            more = (
+                f" (did you mean 'profile.{hit[0]}'?)"
+                if hit
+                else f" (valid: {', '.join(PROFILE_KEYS)})"
+            )
+            problems.append(f"profile.{key}: unknown key{more}")
+    file = table.get("file")
+    if "file" not in table:
+        problems.append("profile.file: missing (a CAAML 6 .xml/.caaml or SNOWPACK .pro file)")
+    elif not isinstance(file, str) or not file:
+        problems.append(f"profile.file = {_fmt(file)}: must be a path (a string)")
+    wl = table.get("weak_layer")
+    if wl is not None and (not isinstance(wl, int) or isinstance(wl, bool) or wl < 0):
+        problems.append(f"profile.weak_layer = {_fmt(wl)}: must be an integer >= 0 (0 = top)")
+    modulus = table.get("modulus", "scapozza")
+    if modulus not in snow_profiles.MODULUS_RELATIONS:
+        valid = "{" + ", ".join(f'"{c}"' for c in snow_profiles.MODULUS_RELATIONS) + "}"
+        problems.append(f"profile.modulus = {_fmt(modulus)}: must be one of {valid}")
+    for key in ("vertical", "use_strength"):
+        if key in table and not isinstance(table[key], bool):
+            problems.append(f"profile.{key} = {_fmt(table[key])}: must be true or false")
+    date = table.get("date")
+    if date is not None and not isinstance(date, str):
+        problems.append(f'profile.date = {_fmt(date)}: must be ISO text ("2017-11-14T12:00")')
+    if len(problems) > n0:
+        return pvals, []
+    path = Path(file)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    given = {k: v for k, v in pvals.items() if k != "strength_profile"}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            params = snow_profiles.pst_params(
+                path,
+                wl,
+                modulus=modulus,
+                vertical=table.get("vertical", False),
+                use_strength=table.get("use_strength", True),
+                date=date,
+                **given,
+            )
+        except (FileNotFoundError, ImportError) as exc:
+            problems.append(f"profile.file = {_fmt(file)}: {exc}")
+            return pvals, []
+        except ValueError as exc:
+            msg = str(exc)
+            if "weak_layer = " in msg:
+                msg = "profile." + msg[msg.index("weak_layer = ") :]
+            else:
+                msg = f"profile.file = {_fmt(file)}: {msg}"
+            problems.append(msg)
+            return pvals, []
+    out = dict(pvals)
+    for name in ("thickness", "density", "youngs_modulus", "slope_deg", "tau_peak"):
+        out[name] = float(getattr(params, name))
+    notes = [f"profile.file = {_fmt(file)}: {w.message}" for w in caught]
+    return out, notes
 
 
 def _strength_profile(

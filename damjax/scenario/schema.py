@@ -58,6 +58,15 @@ Format (SI units throughout; angles in degrees)::
                                   # extrapolated over the PST (paper Figs. 10-11)
     points = 5001                 # optional: samples over [0, L] (default L/dx + 1)
 
+    [profile]                     # optional: the slab from a snow profile (type = "pst")
+    file = "pit.caaml"            # CAAML 6 (.xml/.caaml) or SNOWPACK .pro, relative to the
+                                  # scenario file's folder (damjax.snow_profiles)
+    weak_layer = 4                # layer index, 0 = top (default: CAAML layer of concern)
+    modulus = "scapozza"          # E(rho) relation: "scapozza", "gerling" or "bergfeld"
+    vertical = false              # true: the profile's depths are vertical
+    date = "2017-11-14T12:00"     # SNOWPACK time series: the profile at this time
+    use_strength = true           # tau_peak from the weak layer's strength (SNOWPACK 0601)
+
     [output]                      # optional
     dir = "damjax-out/NAME"       # output folder (relative to the working directory)
     plot = true                   # write pst.png
@@ -68,6 +77,10 @@ the reverse (``chunk_steps = 50.0`` is an error); ``inf`` is a valid TOML float 
 the range allows it (strengths); ``nan`` never is. A parameter field that is not a
 scalar in `PSTParams` (an array such as a strength profile) takes a number or a TOML
 array of numbers. Unknown keys are errors, with a "did you mean" suggestion.
+
+A ``[profile]`` table is resolved when the scenario is read: it sets params.thickness,
+density, youngs_modulus, slope_deg (if the profile has one) and tau_peak (if it has the
+weak layer's strength); a key written in ``[params]`` wins over the profile's value.
 
 A ``[strength]`` table is resolved when the scenario is read: the result holds the
 sampled ``params.strength_profile`` array (so `Scenario.to_toml` writes that array, and
@@ -108,8 +121,19 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 SCENARIO_TYPES = ("pst", "slope")
-TOP_KEYS = ("type", "name", "description", "params", "setup", "output", "strength", "terrain")
+TOP_KEYS = (
+    "type",
+    "name",
+    "description",
+    "params",
+    "setup",
+    "output",
+    "strength",
+    "terrain",
+    "profile",
+)
 STRENGTH_KEYS = ("file", "fit", "points")
+PROFILE_KEYS = ("file", "weak_layer", "modulus", "vertical", "date", "use_strength")
 SECTIONS = ("params", "setup", "output")
 MAX_PARTICLES = 50_000_000  # beyond this a run cannot be allocated on one device
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")

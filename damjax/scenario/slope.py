@@ -253,6 +253,8 @@ def check(
 ) -> tuple[Any, list[str]]:
     """The Scenario of a ``type = "slope"`` document (None with problems appended), and
     its dubious-value notes. Top-level keys, type and name are checked by the caller."""
+    if "profile" in data:
+        problems.append('profile: only for type = "pst" scenarios (set params.thickness, ...)')
     known_setup = {f.name for f in dataclasses.fields(SlopeSetup)}
     setup_table = data.get("setup", {})
     if isinstance(setup_table, dict):
