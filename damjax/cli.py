@@ -1,9 +1,10 @@
-"""Command line: ``damjax pst|scenarios|run|resume|show ...`` (``damjax CMD --help``).
+"""Command line: ``damjax pst|scenarios|run|resume|show|ensemble ...`` (``damjax CMD --help``).
 
 ``damjax pst [--flag value ...] [--json] [--plot FILE]`` runs a PST from flags. Scenario
 files: ``damjax scenarios`` (list the shipped ones), ``damjax run SCENARIO
 [--out DIR] [--json] [--quiet] [--checkpoint-every SECONDS]``, ``damjax resume DIR``,
-``damjax show DIR``.
+``damjax show DIR``; ``damjax ensemble SCENARIO --members N [--out DIR] [--json] [--quiet]``
+(`damjax.ensemble`).
 
 Bad input exits with status 2 and one line per problem (flag or TOML key, value, valid
 range); never a traceback. A runtime fault exits with status 3 after writing the results
@@ -427,6 +428,18 @@ def cmd_show(ns: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_ensemble(ns: argparse.Namespace) -> int:
+    from damjax.ensemble import cli as ensemble_cli
+
+    with _WarningPrinter():
+        _enable_compilation_cache()
+        try:
+            return ensemble_cli.command(ns)
+        except KeyboardInterrupt:
+            sys.stderr.write("damjax: interrupted (finished members are kept; run it again)\n")
+            return 130
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="damjax", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -461,6 +474,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_show)
+
+    from damjax.ensemble import cli as ensemble_cli
+
+    p = sub.add_parser(
+        "ensemble",
+        help="release-probability ensemble of a slope scenario",
+        description="Run (or resume) N members of a slope scenario that differ in the GRF "
+        "seed and the [ensemble] draws; write DIR/ensemble.nc (member dimension, released, "
+        "release_probability), ensemble.png and ensemble_summary.json.",
+    )
+    ensemble_cli.add_arguments(p)
+    p.set_defaults(func=cmd_ensemble)
     return parser
 
 

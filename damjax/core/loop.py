@@ -125,10 +125,12 @@ def integrate(
     ``start_chunk`` (a resumed run); they lead every list passed on and returned.
     """
     info = RunInfo()
-    exe, info.compile_time_s = compile_chunk(model, state, chunk_steps)
-    if snapshot is not None:
-        snapshot, t_snap = compile_snapshot(snapshot, model, state)
-        info.compile_time_s += t_snap
+    exe = None
+    if start_chunk < n_chunks:  # a finished run resumed at its end compiles nothing
+        exe, info.compile_time_s = compile_chunk(model, state, chunk_steps)
+        if snapshot is not None:
+            snapshot, t_snap = compile_snapshot(snapshot, model, state)
+            info.compile_time_s += t_snap
     tips: list[np.ndarray] = list(history[0]) if history is not None else []
     snaps: list[Any] = list(history[1]) if history is not None else []
     bar = None
@@ -145,6 +147,7 @@ def integrate(
     t0 = _time.perf_counter()
     try:
         for c in range(start_chunk, n_chunks):
+            assert exe is not None
             state, tip = exe(model, state)
             tips.append(np.asarray(tip))
             info.steps_done += chunk_steps

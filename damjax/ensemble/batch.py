@@ -1,0 +1,430 @@
+"""Running an ensemble: the shared layout, the slice size chosen from the compiled step's
+memory, the vmapped (and device-sharded) slices, and resume from the slice files of the
+output folder (`run`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from damjax import distributed, io
+from damjax.core.loop import cpu_compiler_options, run_chunk
+from damjax.core.model import build_slope, make_slope_layout
+from damjax.ensemble.plot import plot_ensemble
+from damjax.ensemble.products import (
+    ENSEMBLE_FILE,
+    FIGURE,
+    SLICE_DIR,
+    SUMMARY_FILE,
+    assemble,
+    done_slices,
+    quantile_summary,
+    slice_dataset,
+    slice_name,
+)
+from damjax.ensemble.spec import Ensemble, _is_int, key_of, member_draws, member_scenario
+from damjax.scenario.slope_fields import resolve_fields, simulate
+from damjax.validation import ensure_x64
+
+PLAN_FILE = "plan.json"
+MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
+MEMORY_FRACTION = 0.5  # of the free memory a slice may use
+
+
+# --------------------------------------------------------------------------- planning
+
+
+def _resolve(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]:
+    try:
+        return resolve_fields(scn)
+    except ValueError as exc:  # a plain one-line ValueError
+        raise ValueError(str(exc)) from None
+
+
+def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
+    """One layout for every member: the largest grid padding and the smallest time step
+    any member needs (`damjax.core.model.make_slope_layout`)."""
+    scn = ens.scenario
+    sl, _, _, _ = _resolve(scn)
+    max_slope = float(np.max(sl))
+    members = range(ens.members) if members is None else members
+    layouts = []
+    for i in members if (ens.params or ens.strength) else [0]:
+        params = dataclasses.replace(scn.params, **member_draws(ens, i)[0])
+        layouts.append(make_slope_layout(params, scn.setup, max_slope))
+    fine = max(layouts, key=lambda lay: (lay.n_steps, -lay.chunk_steps))
+    px = max(lay.pad[0] for lay in layouts)
+    py = max(lay.pad[1] for lay in layouts)
+    nx, ny = fine.n_cells
+    return dataclasses.replace(fine, grid_shape=(px + nx + py, 2 * py + ny), pad=(px, py))
+
+
+def _free_memory_bytes(device: Any) -> int:
+    stats = None
+    try:
+        stats = device.memory_stats()
+    except Exception:  # noqa: BLE001 - backends without stats
+        stats = None
+    if stats and "bytes_limit" in stats:
+        return int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 4 << 30
+
+
+def _peak_bytes(compiled: Any) -> int | None:
+    try:
+        m = compiled.memory_analysis()
+    except Exception:  # noqa: BLE001
+        return None
+    if m is None:
+        return None
+    return int(
+        m.argument_size_in_bytes
+        + m.output_size_in_bytes
+        + m.temp_size_in_bytes
+        - m.alias_size_in_bytes
+    )
+
+
+# --------------------------------------------------------------------------- the run
+
+
+def _stack(trees: list[Any]) -> Any:
+    return jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *trees)
+
+
+def _build_members(ens: Ensemble, idx: list[int], layout: Any) -> tuple[Any, Any, list[Any]]:
+    """Stacked (models, states) of members idx and their member scenarios with the
+    resolved start."""
+    models, states, scns = [], [], []
+    for i in idx:
+        scn = member_scenario(ens, i)
+        sl, fall, tau, start = _resolve(scn)
+        setup = dataclasses.replace(scn.setup, start=start)
+        ensure_x64(setup.dtype)
+        m, s, _, _ = build_slope(scn.params, setup, layout, sl, tau, fall)
+        models.append(m)
+        states.append(s)
+        scns.append(scn)
+    return _stack(models), _stack(states), scns
+
+
+_COMPILED: dict[Any, Any] = {}
+
+
+class _Runner:
+    """The compiled slice step: a vmapped chunk of `run_chunk` over a slice, sharded over
+    the local devices; members that had faulted keep their state."""
+
+    def __init__(self, layout: Any, devices: list[Any]) -> None:
+        self.layout, self.devices = layout, devices
+        n = layout.chunk_steps
+
+        def body(models: Any, states: Any) -> Any:
+            new, _ = jax.vmap(lambda m, s: run_chunk(m, s, n))(models, states)
+            keep = states.fault != 0
+
+            def sel(a: Any, b: Any) -> Any:
+                return jnp.where(keep.reshape(keep.shape + (1,) * (a.ndim - 1)), a, b)
+
+            return jax.tree.map(sel, states, new)
+
+        self.sharding = None
+        if len(devices) > 1:
+            from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+            mesh = Mesh(np.array(devices), ("member",))
+            self.sharding = NamedSharding(mesh, PartitionSpec("member"))
+            body = jax.shard_map(
+                body,
+                mesh=mesh,
+                in_specs=PartitionSpec("member"),
+                out_specs=PartitionSpec("member"),
+            )
+        self.fn = jax.jit(body, donate_argnums=1, compiler_options=cpu_compiler_options())
+        self.compiled: Any = None
+        self.compile_time_s = 0.0
+
+    def put(self, tree: Any) -> Any:
+        if self.sharding is not None:
+            return jax.device_put(tree, self.sharding)
+        return jax.device_put(tree, self.devices[0])
+
+    def compile(self, models: Any, states: Any) -> Any:
+        """The compiled slice step for these shapes (kept for the process: a resumed or
+        repeated ensemble of the same layout compiles nothing)."""
+        leaves, treedef = jax.tree.flatten((models, states))
+        key = (
+            treedef,
+            tuple((np.shape(x), str(x.dtype)) for x in leaves),
+            self.layout.chunk_steps,
+            tuple(d.id for d in self.devices),
+        )
+        if key not in _COMPILED:
+            t0 = time.perf_counter()
+            _COMPILED[key] = self.fn.lower(models, states).compile()
+            self.compile_time_s += time.perf_counter() - t0
+        self.compiled = _COMPILED[key]
+        return self.compiled
+
+    def run(self, models: Any, states: Any, progress: Any = None) -> Any:
+        for _ in range(self.layout.n_chunks):
+            states = self.compiled(models, states)
+            if progress is not None:
+                progress(self.layout.chunk_steps)
+        return jax.block_until_ready(states)
+
+
+def _pad(tree: Any, n: int) -> Any:
+    def one(a: np.ndarray) -> np.ndarray:
+        k = n - a.shape[0]
+        return np.concatenate([a, np.repeat(a[-1:], k, axis=0)]) if k > 0 else a
+
+    return jax.tree.map(one, tree)
+
+
+def _finish_member(scn: Any, state: Any, layout: Any) -> Any:
+    """The `SlopeResult` of a finished member: `damjax.scenario.slope_fields.simulate`
+    resumed at the last chunk with the member's final state (no step is run: the same
+    maps and summary as a single run)."""
+    return simulate(scn, state=state, start_chunk=layout.n_chunks)
+
+
+@dataclasses.dataclass
+class Plan:
+    """How an ensemble is cut: the slice size, the shared layout, the memory figures."""
+
+    key: str
+    slice_size: int
+    layout: dict[str, Any]
+    peak_bytes_per_device: int | None
+    budget_bytes_per_device: int
+    devices_per_process: int
+    chosen: str  # "memory", "given" or "stored"
+
+    def slices(self, members: int) -> list[tuple[int, int]]:
+        s = self.slice_size
+        return [(a, min(a + s, members)) for a in range(0, members, s)]
+
+
+def _layout_dict(layout: Any) -> dict[str, Any]:
+    return {
+        "grid_shape": list(layout.grid_shape),
+        "pad": list(layout.pad),
+        "n_cells": list(layout.n_cells),
+        "n_chunks": layout.n_chunks,
+        "chunk_steps": layout.chunk_steps,
+    }
+
+
+def run(
+    ens: Ensemble,
+    out_dir: str | os.PathLike[str],
+    *,
+    slice_size: int | None = None,
+    memory_fraction: float = MEMORY_FRACTION,
+    devices: list[Any] | None = None,
+    plot: bool = True,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+    on_slice: Callable[[int, int], None] | None = None,
+) -> Any:
+    """Run (or resume) an ensemble into ``out_dir``; returns the ``ensemble.nc`` dataset.
+
+    Args:
+        ens: the ensemble (`load`, `from_scenario`).
+        out_dir: output folder (see the module doc for its files).
+        slice_size: members per slice (overrides ``ensemble.slice_size``; default: from
+            memory). A folder keeps the slice size it was started with.
+        memory_fraction: share of the free memory a slice may use, (0, 1].
+        devices: this process's devices (default `jax.local_devices()`).
+        plot: write ``ensemble.png``.
+        progress: tqdm progress bar over the members' steps.
+        log: called with one line per event (slice done, resumed slices, ...).
+        on_slice: called as ``on_slice(a, b)`` once members a..b-1 are on disk.
+    """
+    if slice_size is not None and not _is_int(slice_size, 1):
+        raise ValueError(f"slice_size = {slice_size!r}: must be an integer >= 1")
+    if not (isinstance(memory_fraction, (int, float)) and 0 < memory_fraction <= 1):
+        raise ValueError(f"memory_fraction = {memory_fraction!r}: must be in (0, 1]")
+    say = log or (lambda _msg: None)
+    t_start = time.perf_counter()
+    out = Path(out_dir)
+    slices_dir = out / SLICE_DIR
+    slices_dir.mkdir(parents=True, exist_ok=True)
+    io.remove_stale_temporaries(slices_dir)
+    io.remove_stale_temporaries(out)
+    devices = list(jax.local_devices()) if devices is None else list(devices)
+    n_dev = len(devices)
+    proc, n_proc = distributed.process_index(), distributed.process_count()
+    key = key_of(ens)
+    layout = shared_layout(ens)
+    given = slice_size if slice_size is not None else ens.slice_size
+
+    # the plan: stored, or made by process 0 (it compiles the first slice to measure it)
+    plan_path = out / PLAN_FILE
+    plan: Plan | None = None
+    if plan_path.is_file():
+        plan = Plan(**json.loads(plan_path.read_text()))
+        _check_plan(plan, key, layout, out)
+        plan.chosen = "stored"
+    runner = _Runner(layout, devices)
+    peak = None
+    if plan is None and proc == 0:
+        budget = int(memory_fraction * _free_memory_bytes(devices[0]) / max(1, n_dev))
+        per_dev_cap = max(1, math.ceil(ens.members / (n_dev * n_proc)))
+        if given is not None:
+            per_dev, chosen = max(1, math.ceil(given / n_dev)), "given"
+        else:
+            per_dev, chosen = min(MAX_PER_DEVICE, per_dev_cap), "memory"
+        while True:
+            k = per_dev * n_dev
+            m, s, _ = _build_members(ens, [0], layout)
+            m, s = _pad(m, k), _pad(s, k)
+            runner.compile(*runner.put((m, s)))
+            peak = _peak_bytes(runner.compiled)
+            if chosen == "given" or peak is None or peak <= budget or per_dev == 1:
+                break
+            per_dev = max(1, int(per_dev * budget / peak))
+        plan = Plan(
+            key=key,
+            slice_size=given if chosen == "given" else per_dev * n_dev,
+            layout=_layout_dict(layout),
+            peak_bytes_per_device=peak,
+            budget_bytes_per_device=budget,
+            devices_per_process=n_dev,
+            chosen=chosen,
+        )
+        if peak is not None and peak > budget:
+            say(
+                f"slice of {plan.slice_size}: XLA's peak estimate {peak / 2**20:.0f} MiB per "
+                f"device exceeds the budget {budget / 2**20:.0f} MiB"
+            )
+        io.write_json(plan_path, dataclasses.asdict(plan))
+    distributed.barrier("damjax-ensemble-plan")
+    if plan is None:
+        plan = Plan(**json.loads(plan_path.read_text()))
+        _check_plan(plan, key, layout, out)
+    size = plan.slice_size
+    k_pad = math.ceil(size / n_dev) * n_dev
+    say(
+        f"ensemble of {ens.members} members, slices of {size} "
+        f"({plan.chosen}; peak {_mib(plan.peak_bytes_per_device)} per device, budget "
+        f"{_mib(plan.budget_bytes_per_device)}), {n_dev} device(s) x {n_proc} process(es)"
+    )
+
+    # what is left: the scan is done by every process before any writes again
+    all_slices = plan.slices(ens.members)
+    done = done_slices(out)
+    distributed.barrier("damjax-ensemble-scan")
+    todo = [s for s in all_slices if s not in done]
+    mine = [s for j, s in enumerate(todo) if j % n_proc == proc]
+    skipped = len(all_slices) - len(todo)
+    if skipped:
+        say(f"resuming: {skipped} of {len(all_slices)} slices done, {len(todo)} to run")
+
+    bar = None
+    if progress and mine:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=sum(b - a for a, b in mine) * layout.n_steps,
+            unit="step",
+            unit_scale=True,
+            desc=f"ensemble x{ens.members}",
+        )
+    run_time = 0.0
+    run_members = 0
+    for a, b in mine:
+        idx = list(range(a, b))
+        models, states, scns = _build_members(ens, idx, layout)
+        models, states = runner.put((_pad(models, k_pad), _pad(states, k_pad)))
+        if runner.compiled is None:
+            runner.compile(models, states)
+        t0 = time.perf_counter()
+        per_member = None
+        if bar is not None:
+            n_idx = len(idx)
+            per_member = lambda steps, k=n_idx: bar.update(steps * k)  # noqa: E731
+        final = runner.run(models, states, per_member)
+        run_time += time.perf_counter() - t0
+        run_members += len(idx)
+        final_h = jax.tree.map(np.asarray, final)
+        results = []
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            for j in range(len(idx)):
+                take = lambda x, j=j: jnp.asarray(x[j])  # noqa: E731
+                results.append(_finish_member(scns[j], jax.tree.map(take, final_h), layout))
+        ds = slice_dataset(ens, idx, results)
+        io.write_dataset(slices_dir / slice_name(a, b), ds)
+        say(f"members {a}-{b - 1} done ({time.perf_counter() - t0:.1f} s)")
+        if on_slice is not None:
+            on_slice(a, b)
+    if bar is not None:
+        bar.close()
+    distributed.barrier("damjax-ensemble-done")
+    summary = None
+    if proc == 0:
+        ds = assemble(out, ens.members, key)
+        ds.attrs["scenario"] = ens.scenario.to_toml()
+        ds.attrs["ensemble"] = json.dumps(ens.table(), sort_keys=True)
+        ds.attrs["layout"] = json.dumps(plan.layout)
+        io.write_dataset(out / ENSEMBLE_FILE, ds)
+        summary = {
+            **quantile_summary(ds),
+            "wall_time_s": time.perf_counter() - t_start,
+            "run_time_s": run_time,
+            "compile_time_s": runner.compile_time_s,
+            "members_run_here": run_members,
+            "slices_resumed": skipped,
+            "slice_size": size,
+            "slice_size_chosen_by": plan.chosen,
+            "peak_bytes_per_device": plan.peak_bytes_per_device,
+            "budget_bytes_per_device": plan.budget_bytes_per_device,
+            "devices_per_process": n_dev,
+            "processes": n_proc,
+            "n_steps": layout.n_steps,
+        }
+        io.write_json(out / SUMMARY_FILE, summary)
+        if plot:
+            plot_ensemble(ds, out / FIGURE)
+    distributed.barrier("damjax-ensemble-written")
+    ds = io.open_dataset(out / ENSEMBLE_FILE)
+    if summary is not None:
+        ds.attrs["run_summary"] = json.dumps(summary)
+    return ds
+
+
+def _mib(b: int | None) -> str:
+    return "n/a" if b is None else f"{b / 2**20:.0f} MiB"
+
+
+def _check_plan(plan: Plan, key: str, layout: Any, out: Path) -> None:
+    if plan.key != key:
+        raise ValueError(
+            f"{out}: holds an ensemble of another scenario or [ensemble] table (key "
+            f"{plan.key}, this one {key}); give another --out"
+        )
+    if plan.layout != _layout_dict(layout):
+        raise ValueError(
+            f"{out}: its members ran with another layout ({plan.layout}); the drawn "
+            "parameters of the new members need a smaller time step: give another --out"
+        )

@@ -1,0 +1,224 @@
+"""The ensemble's files: one NetCDF per finished slice of members (`slice_dataset`) and
+``ensemble.nc`` with every member and the products (`assemble`): the release probability
+per cell and the quantiles of the release area and of the up-slope arrest distance."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from damjax import io
+from damjax.ensemble.spec import Ensemble, key_of, member_draws, member_seed
+
+ENSEMBLE_FILE = "ensemble.nc"
+FIGURE = "ensemble.png"
+SUMMARY_FILE = "ensemble_summary.json"
+SLICE_DIR = "slices"
+QUANTILES = (0.05, 0.5, 0.95)
+TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s")
+SUMMARY_KEYS = (
+    "release_area_m2",
+    "upslope_arrest_distance_m",
+    "upslope_arrest_position_m",
+    "crossslope_extent_m",
+    "crown_area_m2",
+    "stauchwall_area_m2",
+    "slab_fracture_area_m2",
+    "arrested_before_top",
+    "front_quiet_at_end",
+    "last_upslope_failure_time_s",
+    "critical_cut_radius_m",
+    "upslope_crack_speed_over_cs",
+    "crossslope_crack_speed_over_cs",
+    "start_slope_deg",
+)
+_UNITS = {
+    "release_area_m2": ("m2", "area of failed weak layer"),
+    "upslope_arrest_distance_m": ("m", "up-slope arrest distance from the start"),
+    "upslope_arrest_position_m": ("m", "up-slope arrest position from the lower edge"),
+    "crossslope_extent_m": ("m", "cross-slope extent of the release from the start"),
+    "crown_area_m2": ("m2", "area of slab with h < 0.98 h0 (crown)"),
+    "stauchwall_area_m2": ("m2", "area of slab with h > 1.02 h0 (stauchwall)"),
+    "slab_fracture_area_m2": ("m2", "area of fractured slab"),
+    "arrested_before_top": ("1", "up-slope front arrested below the top edge"),
+    "front_quiet_at_end": ("1", "no up-slope failure in the last 0.3 s"),
+    "last_upslope_failure_time_s": ("s", "time of the last up-slope failure"),
+    "critical_cut_radius_m": ("m", "sawn radius when the crack ran by itself"),
+    "upslope_crack_speed_over_cs": ("1", "peak up-slope crack speed over c_s"),
+    "crossslope_crack_speed_over_cs": ("1", "peak cross-slope crack speed over c_s"),
+    "start_slope_deg": ("degree", "slope angle at the start"),
+}
+
+
+def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
+    """The dataset of members ``idx`` from their `SlopeResult` s: per-member summaries,
+    seeds, drawn parameters and the maps ``released``, ``arrival_time``, ``height`` and
+    ``tau_peak`` (no wall-clock numbers)."""
+    import xarray as xr
+
+    r0 = results[0]
+
+    def var(dims: tuple[str, ...], data: Any, units: str, long_name: str) -> Any:
+        return xr.Variable(dims, np.asarray(data), {"units": units, "long_name": long_name})
+
+    data: dict[str, Any] = {
+        "seed": var(("member",), [member_seed(ens, i) for i in idx], "1", "GRF seed"),
+        "start_x": var(
+            ("member",), [r.summary["start_m"][0] for r in results], "m", "crack start x"
+        ),
+        "start_y": var(
+            ("member",), [r.summary["start_m"][1] for r in results], "m", "crack start y"
+        ),
+        "faulted": var(
+            ("member",),
+            np.array([r.summary.get("fault") is not None for r in results], np.int8),
+            "1",
+            "run stopped by a runtime fault",
+        ),
+    }
+    for key in SUMMARY_KEYS:
+        vals = []
+        for r in results:
+            v = r.summary.get(key)
+            vals.append(math.nan if v is None else float(v))
+        units, long_name = _UNITS[key]
+        arr = np.array(vals, np.float64)
+        if units == "1" and key in ("arrested_before_top", "front_quiet_at_end"):
+            arr = arr.astype(np.int8)
+        data[key] = var(("member",), arr, units, long_name)
+    for part, pre in ((0, "param_"), (1, "strength_")):
+        names = sorted(ens.params if part == 0 else ens.strength)
+        for name in names:
+            vals = [member_draws(ens, i)[part][name] for i in idx]
+            data[pre + name] = var(("member",), vals, "", f"drawn {name}")
+    stack = lambda f: np.stack([f(r) for r in results])  # noqa: E731
+    data["released"] = var(
+        ("member", "x", "y"),
+        stack(lambda r: np.isfinite(r.arrival_time)).astype(np.int8),
+        "1",
+        "weak layer failed (0/1)",
+    )
+    data["arrival_time"] = var(
+        ("member", "x", "y"),
+        stack(lambda r: np.where(np.isfinite(r.arrival_time), r.arrival_time, np.nan)).astype(
+            np.float32
+        ),
+        "s",
+        "weak-layer failure time",
+    )
+    data["height"] = var(
+        ("member", "x", "y"), stack(lambda r: r.height).astype(np.float32), "m", "final slab height"
+    )
+    data["tau_peak"] = var(
+        ("member", "x", "y"),
+        stack(lambda r: r.tau_peak).astype(np.float32),
+        "Pa",
+        "weak-layer shear strength",
+    )
+    data["slope_angle"] = var(
+        ("x", "y"), r0.slope_deg.astype(np.float32), "degree", "local slope angle"
+    )
+    summaries = [{k: v for k, v in r.summary.items() if k not in TIMING_KEYS} for r in results]
+    ds = xr.Dataset(
+        data,
+        coords={
+            "member": var(("member",), np.asarray(idx, np.int64), "1", "member index"),
+            "x": var(("x",), r0.x, "m", "up-slope distance along the surface"),
+            "y": var(("y",), r0.y, "m", "cross-slope distance along the surface"),
+        },
+        attrs={"summaries": io.to_json(summaries), "key": key_of(ens)},
+    )
+    return ds
+
+
+def slice_name(a: int, b: int) -> str:
+    """File name of the slice of members a..b-1."""
+    return f"members_{a:05d}-{b:05d}.nc"
+
+
+def done_slices(folder: Path) -> dict[tuple[int, int], Path]:
+    """The finished slice files of an output folder, by (first, end) member."""
+    out = {}
+    for p in sorted((folder / SLICE_DIR).glob("members_*-*.nc")):
+        a, b = p.stem.split("_", 1)[1].split("-")
+        out[(int(a), int(b))] = p
+    return out
+
+
+def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = None) -> Any:
+    """The ensemble dataset of members 0..members-1 from the slice files of ``out_dir``,
+    with its products: ``release_probability`` (x, y), ``release_area_m2_quantiles`` and
+    ``upslope_arrest_distance_m_quantiles`` (quantile)."""
+    import xarray as xr
+
+    parts = []
+    for (a, b), p in done_slices(Path(out_dir)).items():
+        if a >= members:
+            continue
+        d = io.open_dataset(p)
+        if key is not None and d.attrs.get("key") != key:
+            raise ValueError(f"{p}: a slice of another ensemble (key {d.attrs.get('key')})")
+        parts.append(d.sel(member=slice(a, min(b, members) - 1)))
+    if not parts:
+        raise ValueError(f"{out_dir}: no finished members")
+    summaries = sum((json.loads(p.attrs["summaries"])[: p.sizes["member"]] for p in parts), [])
+    slope_angle = parts[0]["slope_angle"]
+    ds = xr.concat([p.drop_vars("slope_angle") for p in parts], dim="member")
+    ds = ds.sortby("member")
+    have = ds["member"].values
+    if have.size != members or not np.array_equal(have, np.arange(members)):
+        missing = sorted(set(range(members)) - set(have.tolist()))
+        raise ValueError(f"{out_dir}: members {missing[:10]} not finished")
+    ds["slope_angle"] = slope_angle
+    prob = ds["released"].astype(np.float64).mean("member")
+    ds["release_probability"] = prob.astype(np.float32)
+    ds["release_probability"].attrs = {
+        "units": "1",
+        "long_name": "release probability (member mean of released)",
+    }
+    q = np.asarray(QUANTILES)
+    ds = ds.assign_coords(quantile=("quantile", q, {"units": "1", "long_name": "probability"}))
+    for name in ("release_area_m2", "upslope_arrest_distance_m"):
+        vals = ds[name].values
+        ds[f"{name}_quantiles"] = (
+            ("quantile",),
+            np.quantile(vals[np.isfinite(vals)], q) if np.any(np.isfinite(vals)) else q * np.nan,
+            {"units": ds[name].attrs["units"], "long_name": f"quantiles of {name}"},
+        )
+    ds.attrs = {
+        "title": "damjax slope release ensemble",
+        "damjax_version": _version(),
+        "members": members,
+        "summaries": io.to_json(summaries),
+        "key": key or parts[0].attrs.get("key", ""),
+        "Conventions": "CF-1.8",
+    }
+    return ds
+
+
+def _version() -> str:
+    import damjax
+
+    return damjax.__version__
+
+
+def quantile_summary(ds: Any) -> dict[str, Any]:
+    """``members`` and the quantile objects (q05, q50, q95) of the release area [m^2] and
+    the up-slope arrest distance [m] of an ensemble dataset."""
+
+    def obj(name: str) -> dict[str, float]:
+        return {
+            f"q{round(100 * q):02d}": float(v)
+            for q, v in zip(QUANTILES, ds[f"{name}_quantiles"].values, strict=True)
+        }
+
+    return {
+        "members": int(ds.sizes["member"]),
+        "release_area_m2_quantiles": obj("release_area_m2"),
+        "upslope_arrest_distance_m_quantiles": obj("upslope_arrest_distance_m"),
+    }
