@@ -97,3 +97,145 @@ def test_speed_change_of_a_fracture():
     assert c["speed_after_m_per_s"] == pytest.approx(10.0, rel=1e-6)
     assert c["speed_drop_m_per_s"] == pytest.approx(90.0, rel=1e-6)
     assert math.isfinite(c["t_s"])
+
+
+# --------------------------------------------------------------------------- small PSTs
+# A 20 m PST at sigma_t 6 kPa (p0 rule "paper": uniaxial yield at 3.2 kPa), L_ss 6.7 m,
+# theta 150 Pa/m: the tension behind the running crack reaches the strength near 11-14 m
+# within 0.35 s, ahead of the strength gradient's arrest.
+
+
+def _small_pst(dx: float, cov: float = 0.2, seed: int = 0, chunk_steps: int = 1000):
+    from damjax import PSTParams, PSTSetup
+
+    params = PSTParams(
+        tensile_strength=6000.0,
+        strength_gradient=150.0,
+        softening=0.0,
+        steady_length=20.0 / 3.0,
+        slab_strength_cov=cov,
+    )
+    setup = PSTSetup(
+        length=20.0,
+        dx=dx,
+        duration=0.5,
+        slab_fracture="crack_band",
+        seed=seed,
+        chunk_steps=chunk_steps,
+    )
+    return params, setup
+
+
+def _plastic_work(params, setup):
+    """Model, final state and the plastic work per particle [J per m of width] of a run
+    (sigma : d eps_p summed over the steps, times the particle's volume)."""
+    import jax
+
+    from damjax.core.model import build, make_layout
+    from damjax.core.step import step
+
+    layout = make_layout(params, setup)
+    model, state = build(params, setup, layout)
+    volume = model.thickness * model.area0
+
+    def body(carry, _):
+        s, work = carry
+        new = step(model, s)
+        d = [a - b for a, b in zip(new.eps_p, s.eps_p, strict=True)]
+        dw = new.sigma[0] * d[0] + new.sigma[1] * d[1] + 2.0 * new.sigma[2] * d[2]
+        return (new, work + dw * volume), None
+
+    run = jax.jit(lambda c: jax.lax.scan(body, c, None, length=layout.n_steps)[0])
+    final, work = run((state, jnp.zeros_like(state.opening)))
+    return model, final, np.asarray(work)
+
+
+def test_fractures_agree_between_two_grids_for_a_seed():
+    # measured (seed 0): fractures at 11.26 and 5.38 m on dx 0.08, 11.27 and 5.71 m on 0.04
+    from damjax.pst import simulate_pst
+
+    runs = [simulate_pst(*_small_pst(dx)) for dx in (0.08, 0.04)]
+    coarse, fine = (r.summary["slab_fractures"] for r in runs)
+    assert len(coarse) == len(fine) >= 1
+    for a, b in zip(coarse, fine, strict=True):
+        assert abs(a["x_m"] - b["x_m"]) <= 0.5
+        assert abs(a["t_s"] - b["t_s"]) <= 0.05
+        assert set(a) == {"x_m", "t_s", "opening_m"}
+    # another seed, another field: the first fracture moves
+    other = simulate_pst(*_small_pst(0.08, seed=3)).summary["slab_fractures"]
+    assert abs(other[0]["x_m"] - coarse[0]["x_m"]) > 0.5
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured 2.37 / 2.56 G_f h on dx 0.08 / 0.04 (2026-11-25): the opened zone "
+    "spreads beyond the band-opening window (0.3 m) and dissipates as a second band",
+)
+def test_energy_per_fracture_is_the_fracture_energy_on_two_grids():
+    from damjax.core.step import band_opening
+
+    for dx in (0.08, 0.04):
+        model, final, work = _plastic_work(*_small_pst(dx))
+        x = np.asarray(model.saw_coord)
+        fr = slab_fracture.fractures(
+            x, np.asarray(band_opening(model, final.opening)), np.asarray(final.t_fracture)
+        )
+        first = fr[0]
+        near = np.abs(x - first["x_m"]) < 0.5
+        g_f_h = float(model.fracture_energy) * float(model.thickness)
+        assert float(work[near].sum()) == pytest.approx(g_f_h, rel=0.1), dx
+
+
+def test_homogeneous_slab_fractures_where_the_tension_first_reaches_the_strength():
+    # CoV 0: one strength everywhere. The tension peaks behind the running crack tip and
+    # grows; the first fracture is where that peak reaches the uniaxial yield stress
+    # (snapshots every 5 steps, 1.6 ms; measured: 3201 Pa of 3206 at 13.50 m, t = 0.298 s,
+    # fracture at 13.74 m)
+    from damjax.materials import mcc
+    from damjax.pst import simulate_pst
+
+    params, setup = _small_pst(0.08, cov=0.0, chunk_steps=5)
+    r = simulate_pst(params, setup)
+    p0 = mcc.p0_from_tensile_strength(
+        params.tensile_strength, params.mcc_m, params.mcc_beta, setup.p0_rule
+    )
+    sigma_y = float(mcc.uniaxial_strengths(p0, params.mcc_m, params.mcc_beta)[0])
+    first = r.summary["slab_fractures"][0]
+    snaps = r.snapshots
+    before = np.nonzero(snaps["time"] <= first["t_s"])[0]
+    peak = np.max(snaps["sigma_xx"][before], axis=1)
+    k = before[np.argmax(peak)]
+    assert peak.max() >= 0.97 * sigma_y  # the tension did reach the strength
+    x_peak = float(r.x[np.argmax(snaps["sigma_xx"][k])])
+    assert abs(first["x_m"] - x_peak) <= 0.5
+
+
+def test_paper_slab_moves_as_without_a_lattice_and_elastic_slabs_get_none():
+    # "paper": the lattice only counts fractures; the slab's motion is that of a model
+    # without one, bit for bit. An elastic slab gets no lattice whatever the choice.
+    import dataclasses
+
+    import jax
+
+    from damjax import PSTParams, PSTSetup
+    from damjax.core.model import build, make_layout
+    from damjax.core.step import step
+
+    params = PSTParams(tensile_strength=3000.0, strength_gradient=150.0, steady_length=4.0)
+    setup = PSTSetup(length=12.0, dx=0.08, duration=0.3, slab_fracture="paper")
+    model, state = build(params, setup, make_layout(params, setup))
+    assert model.lattice and not model.crack_band
+    bare = dataclasses.replace(model, lattice=(), lattice_spacing=0.0, opening_window=0)
+
+    def run(m):
+        return jax.jit(lambda s: jax.lax.fori_loop(0, 1500, lambda i, s: step(m, s), s))(state)
+
+    a, b = run(model), run(bare)
+    assert float(np.max(a.opening)) > 0.0  # the slab yielded
+    np.testing.assert_array_equal(np.asarray(a.sigma[0]), np.asarray(b.sigma[0]))
+    np.testing.assert_array_equal(np.asarray(a.u), np.asarray(b.u))
+    for choice in ("paper", "crack_band"):
+        elastic = PSTParams()
+        s = dataclasses.replace(setup, slab_fracture=choice)
+        m = build(elastic, s, make_layout(elastic, s))[0]
+        assert m.lattice == () and not m.crack_band and not m.plastic

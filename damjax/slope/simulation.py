@@ -128,6 +128,16 @@ class SlopeResult:
         return ds
 
 
+def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
+    """Cells (nx, ny) where the slab fractured: with a particle lattice (the "crack_band"
+    slab) where a particle's band opening reached the fracture opening
+    (`damjax.core.step.fracture_opening`, the same on every grid), else where the cell's
+    mean opening strain reached `damjax.core.step.fracture_strain`."""
+    if model.lattice:
+        return cm(np.isfinite(np.asarray(final.t_fracture)).astype(float)) > 0.0
+    return cm(final.opening) >= float(np.min(np.asarray(fracture_strain(model))))
+
+
 def _cell_map(
     values: np.ndarray,
     cell0: np.ndarray,
@@ -290,9 +300,7 @@ def simulate_slope(
         "release_area_m2": float(broken.sum() * float(model.area0)),
         "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
         "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
-        "slab_fracture_area_m2": float(
-            np.sum(cm(final.opening) >= float(fracture_strain(model))) * setup.dx**2
-        ),
+        "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
