@@ -239,3 +239,39 @@ def test_paper_slab_moves_as_without_a_lattice_and_elastic_slabs_get_none():
         s = dataclasses.replace(setup, slab_fracture=choice)
         m = build(elastic, s, make_layout(elastic, s))[0]
         assert m.lattice == () and not m.crack_band and not m.plastic
+
+
+def test_slope_strength_field_is_the_same_on_two_grids_and_calibration_keeps_it():
+    # the crack_band slope: the sigma_t field of a seed over the release area, the same on
+    # dx 0.2 and 0.1 m (p0 is proportional to sigma_t); the slope calibration substitutes
+    # sigma_t by scaling that field, not by a homogeneous slab
+    from damjax import SlopeSetup
+    from damjax.calibrate import slope as sc
+    from damjax.slope.generic import fig12_params
+
+    params = fig12_params(tensile_strength=4000.0)
+    out = {}
+    for dx in (0.2, 0.1):
+        setup = SlopeSetup(
+            length=10.0,
+            width=6.0,
+            dx=dx,
+            duration=0.1,
+            start=(2.0, 3.0),
+            slab_fracture="crack_band",
+        )
+        problem = sc.slope_problem(params, setup, slope_deg=35.0, tau_peak=1500.0)
+        m = problem.model
+        assert m.crack_band and m.lattice == (round(10.0 / dx) * 2, round(6.0 / dx) * 2)
+        out[dx] = (problem.xp, problem.yp, np.asarray(m.p0_init))
+        scaled = sc.with_slab(problem, 2.0 * 4000.0, 1.0)
+        np.testing.assert_allclose(
+            np.asarray(scaled.p0_init), 2.0 * np.asarray(m.p0_init), rtol=1e-6
+        )
+    (xc, yc, pc), (xf, yf, pf) = out[0.2], out[0.1]
+    assert np.std(pc) / np.mean(pc) > 0.1  # heterogeneous
+    # the fine grid's p0 at the coarse particles (nearest fine particle, 2.5 cm away)
+    idx = [
+        np.argmin((xf - a) ** 2 + (yf - b) ** 2) for a, b in zip(xc[::97], yc[::97], strict=True)
+    ]
+    np.testing.assert_allclose(pf[idx], pc[::97], rtol=0.05)

@@ -111,13 +111,19 @@ def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> M
     """The problem's model with sigma_t [Pa] and delta [-] (traceable) substituted."""
     m = problem.model
     dt = m.p0_init.dtype
-    p0 = mcc.p0_from_tensile_strength(
-        jnp.asarray(tensile_strength, dt),
-        m.mcc_m,
-        m.mcc_beta,
-        problem.setup.p0_rule,
-        problem.setup.mcc_invariants,
-    )
+    if m.crack_band:
+        # p0 is proportional to sigma_t (both p0 rules): scaling the built p0 keeps the
+        # slab's strength field, with tensile_strength as its new mean
+        mean = float(problem.params.tensile_strength)
+        p0 = m.p0_init * (jnp.asarray(tensile_strength, dt) / mean)
+    else:
+        p0 = mcc.p0_from_tensile_strength(
+            jnp.asarray(tensile_strength, dt),
+            m.mcc_m,
+            m.mcc_beta,
+            problem.setup.p0_rule,
+            problem.setup.mcc_invariants,
+        )
     delta = jnp.asarray(softening, dt)
     _, u_res = weak_layer.critical_displacements(m.tau_peak, m.stiffness, delta)
     return eqx.tree_at(lambda q: (q.p0_init, q.softening, q.u_res), m, (p0, delta, u_res))
