@@ -3,8 +3,9 @@
 A perfectly plastic or softening slab without a length scale localises a fracture in one
 cell: the energy a fracture dissipates goes to zero with dx (Bazant and Oh 1983), and in a
 homogeneous slab under a plateau of tension the place where the next fracture forms is
-decided by round-off. The ``"crack_band"`` slab (`SLAB_FRACTURE_MODELS`, the default for a
-finite tensile strength) has two ingredients that make fractures well posed:
+decided by round-off. The ``"crack_band"`` slab (`SLAB_FRACTURE_MODELS`;
+``PSTSetup.slab_fracture = "crack_band"``) has two ingredients that make fractures well
+posed:
 
 - a fracture energy G_f per unit crack area (`PSTParams.slab_fracture_energy`): p0, hence
   the tensile strength, decays as exp(-w / w_c) with the opening w [m] of the band
@@ -16,9 +17,10 @@ finite tensile strength) has two ingredients that make fractures well posed:
   in metres (`FIELD_SPACING`), so that a seed is the same field on every dx: where a
   fracture forms is decided by the snow.
 
-``"paper"`` is the paper's perfectly plastic, homogeneous slab (G_f and the strength field
-ignored), kept so that its figures stay reproducible. Both models count fractures the same
-way (`fractures`): a band whose opening reached `damjax.core.step.fracture_opening`.
+``"paper"`` (the default) is the paper's perfectly plastic, homogeneous slab (the strength
+field ignored; a G_f given explicitly softens over one cell, as in earlier versions), kept
+so that its figures stay reproducible. Both models count fractures the same way
+(`fractures`): a band whose opening reached `damjax.core.step.fracture_opening`.
 
 Default values (chosen from the literature, not fitted to any result):
 
