@@ -176,6 +176,7 @@ def pst_grad() -> None:
         jax.block_until_ready(g)
         t_gs.append(time.perf_counter() - t0)
     t_f, t_g = min(t_fs), min(t_gs)
+    rss_g = peak_rss_mb()  # the process peak: forward and gradient runs
     emit(
         case="pst_grad",
         n_particles=layout.n_particles,
@@ -190,6 +191,7 @@ def pst_grad() -> None:
         grad_runs_s=[round(t, 3) for t in t_gs],
         particle_steps_per_s=round(layout.n_particles * layout.n_steps / t_f),
         forward_peak_rss_mb=round(rss_f, 1),
+        grad_peak_rss_mb=round(rss_g, 1),
         arrest_position_smooth_m=value,
         d_arrest_d_theta=float(g.strength_gradient),
         d_arrest_d_delta=float(g.softening),
@@ -289,6 +291,114 @@ def pst_grad_fd() -> None:
                     n_particles=layout.n_particles,
                     n_steps=layout.n_steps,
                 )
+
+
+def _gradient_rows(case_name: str, params, setup, fields, batch_size=None) -> None:
+    from damjax import gradient_check
+
+    for field in fields:
+        t0 = time.perf_counter()
+        c = gradient_check(params, setup, field, batch_size=batch_size)
+        emit(
+            case=case_name,
+            field=field,
+            at=c.at,
+            softening=float(params.softening),
+            steady_length=float(params.steady_length),
+            length=setup.length,
+            dx=setup.dx,
+            duration=setup.duration,
+            dtype=setup.dtype,
+            window=[c.values[0], c.values[-1]],
+            n_runs=len(c.values),
+            ad_mean=c.ad_mean,
+            ad_center=c.ad,
+            event_slope=c.event_slope,
+            relative_error=round(c.relative_error, 4),
+            ok=c.ok,
+            arrests_m=list(c.arrests),
+            ad_values=list(c.ad_values),
+            wall_time_s=round(time.perf_counter() - t0, 1),
+        )
+
+
+@case
+def gradient_events() -> None:
+    """AD of the crack length vs the event-based arrest's slope (+-10 %, 11 runs): theta,
+    E, G_wl, tau_peak at softening 0 and 0.3 (40 m PST, L_ss 10, theta 800, dx 0.04, f64)."""
+    import jax
+
+    from damjax import PSTParams, PSTSetup
+
+    jax.config.update("jax_enable_x64", True)
+    setup = PSTSetup(length=40.0, dx=0.04, duration=1.0, dtype="float64")
+    fields = ("strength_gradient", "youngs_modulus", "wl_shear_modulus", "tau_peak")
+    for delta in (0.0, 0.3):
+        params = PSTParams(steady_length=10.0, strength_gradient=800.0, softening=delta)
+        _gradient_rows("gradient_events", params, setup, fields)
+
+
+@case
+def gradient_full() -> None:
+    """The same check on the paper's brittle baseline (theta 500, L_ss 20, softening 0,
+    100 m, dx 0.02 m, 3 s, float32), for theta."""
+    from damjax import PSTParams, PSTSetup
+
+    # one member at a time: the memory of one gradient of the full baseline
+    _gradient_rows("gradient_full", PSTParams(), PSTSetup(), ("strength_gradient",), 1)
+
+
+@case
+def inversion_brittle() -> None:
+    """Gradient inversion through the solver at softening 0: theta from event-based
+    arrests observed on a twice finer grid with noise (20 m PST, dx 0.05 m model)."""
+    import dataclasses
+
+    from damjax import PSTParams, PSTSetup, calibrate, simulate_pst
+
+    truth = PSTParams(steady_length=5.0, strength_gradient=600.0, softening=0.0)
+    model_setup = PSTSetup(length=20.0, dx=0.05, duration=0.8)
+    obs_setup = dataclasses.replace(model_setup, dx=0.025)
+    rng = np.random.default_rng(0)
+    noise = 0.1  # [m]
+    observations = []
+    for lss in (4.0, 5.0, 6.0):  # three PSTs of one snowpack: the steady length varies
+        r = simulate_pst(dataclasses.replace(truth, steady_length=lss), obs_setup)
+        observed = r.arrest_position + float(rng.normal(0.0, noise))
+        observations.append(({"steady_length": lss}, observed))
+        emit(
+            case="inversion_brittle_observation",
+            steady_length=lss,
+            arrest_position_m=r.arrest_position,
+            observed_m=observed,
+            dx=obs_setup.dx,
+        )
+    for start in (400.0, 900.0):
+        t0 = time.perf_counter()
+        inv = calibrate.invert(
+            observations,
+            dataclasses.replace(truth, strength_gradient=start),
+            model_setup,
+            ["strength_gradient"],
+            noise_std=noise,
+            steps=30,
+            learning_rate=0.05,
+        )
+        est = inv.estimates["strength_gradient"]
+        emit(
+            case="inversion_brittle",
+            truth=600.0,
+            start=start,
+            estimate=est,
+            relative_error=abs(est / 600.0 - 1.0),
+            std_error=inv.std_errors["strength_gradient"],
+            loss=inv.loss,
+            loss_history=[round(v, 3) for v in inv.history],
+            dx_model=model_setup.dx,
+            dx_observed=obs_setup.dx,
+            noise_m=noise,
+            wall_time_s=round(time.perf_counter() - t0, 1),
+        )
 
 
 def eqx_replace(params, name: str, value: float):

@@ -6,6 +6,7 @@ Public API (one screen; the package's layers are mapped in CONTRIBUTING.md):
 - `PSTSetup`, `simulate_pst` -> `PSTResult`: a propagation saw test;
 - `SlopeSetup`, `simulate_slope` -> `SlopeResult`: a slope-scale release on terrain;
 - `sweep`: a batch of PSTs as one vmapped (sharded) computation;
+- `gradient_check`: AD of the crack length against the event-based arrest over a window;
 - `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX), with
   `make_layout` (the static grid and step count) for use under `jax.grad`/`jit`/`vmap`;
 - `calibrate`: scaling-law fits, inversion through the solver, slope calibration (optax);
@@ -18,6 +19,7 @@ from damjax import calibrate, diagnostics, plot, runner, scenario, theory
 from damjax._version import __version__
 from damjax.params import PSTParams, PSTSetup, SlopeSetup, SnowParams
 from damjax.pst import PSTResult, arrest_position_smooth, make_layout, simulate_pst
+from damjax.sensitivity import gradient_check
 from damjax.slope import SlopeResult, simulate_slope
 from damjax.sweep import sweep
 
@@ -32,6 +34,7 @@ __all__ = [
     "arrest_position_smooth",
     "calibrate",
     "diagnostics",
+    "gradient_check",
     "make_layout",
     "plot",
     "runner",

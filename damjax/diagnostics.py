@@ -13,43 +13,46 @@ Definitions (all event-based, computed on the host from the tip history):
 - k_x (controlled runs): least-squares slope of sigma_xx against x over 30 %-80 % of the
   cut length at the end of the run.
 
-These are discrete events: they are piecewise constant in the parameters and carry no
-useful gradient. What is differentiated instead is `smooth_arrest_position`: the
-integral along x of a smooth weak-layer damage indicator at the end of the run,
+These are discrete events: piecewise constant in the parameters, they carry no gradient.
+What is differentiated instead is `smooth_arrest_position`, the event-based crack length
+made continuous. Each particle stands for a segment of weak layer of length Delta x_p
+(the particle spacing), and the weak-layer law lets that segment fail progressively as
+the crack front crosses it (`damjax.materials.weak_layer.failed_fraction`: its failed
+fraction phi_p goes from 0 to 1 while the maximum slip goes from u_r - w/2 to u_r + w/2,
+w = u_r Delta x_p / Lambda). The continuous crack length is
 
-    L_smooth = sum_p  s((u_max,p / u_r,p - (1 - w)) / w)  Delta x_p,
+    L_smooth = sum_p  max(phi_p, c_p)  Delta x_p     [m]
 
-with s the C1 smoothstep (0 below, 1 above), w = `SMOOTH_WIDTH` = 0.1 (damage ramps
-from 0 to 1 as the maximum slip goes from 0.9 u_r to u_r), Delta x_p the particle
-spacing; sawn particles count as fully damaged. It equals the length of weak layer that
-lost its cohesion, so it tracks the final tip (and L_ca when the crack arrested), while
-varying continuously with the slips of the particles around the tip.
+with c_p the sawn fraction of the segment. For a crack that runs from the sawn end, as in
+a PST, it is the position of the crack front within the segment it is crossing. The
+event-based tip is the centre of the furthest segment at least half failed
+(u_max >= u_r), so the two differ by less than half a particle spacing while at most
+one segment is partly failed, and are equal when that segment is exactly half failed.
+The mechanics uses the same phi_p (cohesion on the intact part, friction on the rest,
+averaged over each step), so the state after each failure is continuous in the
+parameters and reverse mode carries the shift of every failure, also at delta = 0.
 
-When its gradient means something (measured at full size, `python -m benchmarks
-pst_grad_fd`): with a softening weak layer (delta > 0) the particles of the process zone
-soften gradually and the gradient agrees with central differences of the whole run
-(baseline with delta = 1: within 0.2 % for theta and 0.04 % for delta). With a brittle
-weak layer (delta = 0) each particle snaps from peak strength to zero: the arrest moves
-in particle-sized jumps, and the gradient only sees the tiny drift between jumps (baseline
-theta = 500, delta = 0: d L / d theta = -0.0012 m per Pa/m by AD against -0.238 by central
-differences over 2.5-5 Pa/m). A wider ramp does not help there (10 m PST, L_ss 4 m, theta
-800 Pa/m, dx 0.05 m: AD -6.6e-4 / -6.8e-4 / -8.7e-4 for w = 0.1 / 0.5 / 0.9 against
--4.8e-3 to -6.0e-3 by differences): the missing part is the crack's advance itself, a
-sequence of discrete events in time. Use delta > 0 for gradient-based work.
+Measured (40 m PST, L_ss 10 m, theta 800 Pa/m, dx 0.04 m, 1 s, float64, 2026-11-25;
+d L / d theta by AD against the least-squares slope of the event-based L_ca over theta
+720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01718 m/(Pa/m)
+averaged over the window (-0.01646 at theta 800) against -0.01723 (the event-based
+failure of earlier versions gave -0.00073). `python -m benchmarks gradient_events`
+measures the other fields and softening 0.3.
 
-When a slab fracture stops the crack, the tip freezes abruptly: the maximum slip jumps
-from above u_r to about 0.84 u_r between neighbouring particles, no particle sits in the
-default ramp (0.9-1.0 u_r) and the gradient is exactly zero although the arrest moves
-(measured like the regime check of `benchmarks/inversion.py`, on a 20 m PST, L_ss 8 m,
-theta 300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m: d L / d sigma_t = 0 by AD against 0.99 m/kPa by
-central differences, d L / d delta = 0 against -1.75 m). A wider ramp, ``width`` = 0.5
-(= delta / (1 + delta) for delta = 1: damage over the whole softening branch u_c..u_r),
-restores it: 0.89 m/kPa and -1.64 m by AD against 0.98 m/kPa and -1.79 m by differences,
-for a surrogate 0.14 m above the event-based L_ca.
+When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
+from above u_r to about 0.84 u_r between neighbouring particles, no segment is partly
+failed, and the gradient is zero although the arrest moves (20 m PST, L_ss 8 m, theta
+300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m: d L / d sigma_t = 0 by AD against 0.99 m/kPa
+by central differences). There a damage ramp over the softening branch keeps the
+sensitivity: ``width`` = w_r switches to L = sum_p s((u_max,p / u_r,p - (1 - w_r)) / w_r)
+Delta x_p with s the C1 smoothstep; w_r = 0.5 (= delta / (1 + delta) at delta = 1, the
+whole softening branch) gave 0.89 m/kPa and -1.64 m for d/d delta by AD against 0.98 m/kPa
+and -1.79 m by differences, for a length 0.14 m above the event-based L_ca.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -59,7 +62,6 @@ from damjax import theory
 from damjax.validation import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
-SMOOTH_WIDTH = 0.1  # relative width of the damage ramp of the smooth arrest position
 ARREST_QUIET = 0.3  # [s]
 ARREST_MARGIN = 2.0  # [m] below the upper end
 
@@ -127,22 +129,29 @@ def smoothstep(z: Any) -> Any:
     return z * z * (3.0 - 2.0 * z)
 
 
-def smooth_arrest_position(model: Any, state: Any, width: float = SMOOTH_WIDTH) -> Any:
-    """Differentiable surrogate of the arrest position [m] (JAX; see the module doc).
+def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -> Any:
+    """Continuous crack length [m] (JAX): the event-based crack tip made continuous.
 
-    Works on the model and final state of a 1D run; in 2D it is the damaged area
-    divided by the strip width. ``width`` [-] is the relative width w of the damage
-    ramp (default `SMOOTH_WIDTH`); w = delta / (1 + delta) ramps over the whole
-    softening branch u_c..u_r, which keeps a gradient where a slab fracture freezes the
-    crack tip (see the module doc).
+    Sum over particles of the failed (or sawn) fraction of each particle's segment of
+    weak layer times its length (see the module doc). In 2D it is the failed area divided
+    by the strip width. ``width`` [-], when given, replaces the failed fraction by a C1
+    damage ramp over u_max / u_r in [1 - width, 1] (the choice where a slab fracture
+    freezes the crack tip; see the module doc).
     """
     import jax.numpy as jnp
 
+    from damjax.core.step import front_width
+    from damjax.materials import weak_layer
+
+    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
     finite = jnp.isfinite(model.u_res)
-    u_r = jnp.where(finite, model.u_res, 1.0)
-    z = (state.u_max / u_r - (1.0 - width)) / width
-    damage = jnp.where(finite, smoothstep(z), 0.0)
-    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
+    if width is None:
+        damage = weak_layer.failed_fraction(state.u_max, model.u_res, front_width(model))
+    else:
+        u_r = jnp.where(finite, model.u_res, 1.0)
+        z = (state.u_max / u_r - (1.0 - width)) / width
+        damage = jnp.where(finite, smoothstep(z), 0.0)
+    cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
     damage = jnp.maximum(damage, cut)
     area = jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
     if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
@@ -218,3 +227,89 @@ def summarize(
         "wall_time_s": float(wall_time_s),
         "particle_steps_per_s": n_particles * timed / wall_time_s if wall_time_s > 0 else None,
     }
+
+
+@dataclasses.dataclass(frozen=True)
+class GradientCheck:
+    """AD gradient of the continuous crack length against the event-based arrest.
+
+    The event-based L_ca is a staircase in every parameter (steps of one particle
+    spacing), so what it can be compared with is its trend: the least-squares slope over
+    a window. The AD derivative varies across the window with the curvature of L_ca, so
+    the verdict compares the window mean of the AD derivative (by the fundamental theorem
+    of calculus, what a continuous surrogate's derivative must average to) with that
+    slope; the derivative at the centre is reported beside it.
+
+    Attributes:
+        field: the `PSTParams` field differentiated.
+        at: its value at the centre of the window [field units].
+        ad: d L_smooth / d field by reverse mode at the centre [m per field unit].
+        ad_mean: mean of d L_smooth / d field over the window's values [m per field unit].
+        event_slope: least-squares slope of the event-based L_ca over the window
+            [m per field unit].
+        values: the field values of the window.
+        arrests: event-based L_ca at each value [m] (nan: no arrest).
+        ad_values: d L_smooth / d field at each value [m per field unit].
+        relative_error: |ad_mean - event_slope| / |event_slope| [-].
+        tolerance: the relative error accepted [-].
+        ok: the verdict, relative_error <= tolerance.
+    """
+
+    field: str
+    at: float
+    ad: float
+    ad_mean: float
+    event_slope: float
+    values: tuple[float, ...]
+    arrests: tuple[float, ...]
+    ad_values: tuple[float, ...]
+    relative_error: float
+    tolerance: float
+    ok: bool
+
+    def __str__(self) -> str:
+        verdict = "agrees" if self.ok else "DISAGREES"
+        return (
+            f"d L / d {self.field} over [{self.values[0]:.6g}, {self.values[-1]:.6g}] "
+            f"({len(self.values)} runs): AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
+            f"{self.ad:.5g}) vs event-based slope {self.event_slope:.5g}: {verdict} within "
+            f"{self.tolerance:.0%} (error {self.relative_error:.1%})"
+        )
+
+
+def compare_gradient(
+    field: str,
+    values: Any,
+    ad_values: Any,
+    arrests: Any,
+    tolerance: float = 0.1,
+) -> GradientCheck:
+    """Verdict on AD derivatives [m per field unit] at a window of parameter ``values``
+    (equally spaced, odd count: the centre is the middle one) against the least-squares
+    slope of the event-based arrests [m] there (at least 3 runs that arrested)."""
+    values = np.asarray(values, float)
+    ad_values = np.asarray(ad_values, float)
+    arrests = np.asarray(arrests, float)
+    ok = np.isfinite(arrests)
+    if ok.sum() < 3:
+        raise ValueError(
+            f"gradient check of {field}: {int(ok.sum())} of {values.size} runs arrested; "
+            "at least 3 are needed (a longer duration or PST, or a narrower window)"
+        )
+    slope = float(np.polyfit(values[ok], arrests[ok], 1)[0])
+    ad_mean = float(np.mean(ad_values))
+    err = abs(ad_mean - slope) / max(abs(slope), 1e-300)
+    mid = values.size // 2
+    return GradientCheck(
+        field=field,
+        at=float(values[mid]),
+        ad=float(ad_values[mid]),
+        ad_mean=ad_mean,
+        event_slope=slope,
+        values=tuple(float(v) for v in values),
+        arrests=tuple(float(a) for a in arrests),
+        ad_values=tuple(float(a) for a in ad_values),
+        relative_error=float(err),
+        tolerance=float(tolerance),
+        ok=bool(err <= tolerance),
+    )

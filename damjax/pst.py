@@ -272,8 +272,12 @@ def arrest_position_smooth(
     The layout (grid, step count, elastic or plastic slab) must come from concrete
     parameters, so pass it whenever the parameters are traced (`jax.grad`, `jax.jit`,
     `jax.vmap`); without it traced parameters are an error that says so.
-    ``width``: relative width of the damage ramp (default
-    `damjax.diagnostics.SMOOTH_WIDTH`; see `damjax.diagnostics.smooth_arrest_position`).
+    It is the event-based crack tip made continuous (each particle's segment of weak
+    layer counts with its failed fraction; see `damjax.diagnostics`), and it stays
+    within half a particle spacing of the event-based tip while the front is sharp.
+    ``width``: optional relative width of a damage ramp over u_max / u_r that replaces
+    the failed fraction (0.5 where slab fractures stop the crack; see
+    `damjax.diagnostics.smooth_arrest_position`).
     """
     require_x64(setup.dtype)
     if layout is None:
@@ -293,6 +297,5 @@ def arrest_position_smooth(
 
 
 def diagnostics_smooth(model: Model, final: State, width: float | None = None) -> Any:
-    """`damjax.diagnostics.smooth_arrest_position` with its default ramp width."""
-    width = diagnostics.SMOOTH_WIDTH if width is None else width
+    """`damjax.diagnostics.smooth_arrest_position` of a final state."""
     return diagnostics.smooth_arrest_position(model, final, width)

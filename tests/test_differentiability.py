@@ -38,18 +38,25 @@ def test_smooth_arrest_position_tracks_the_event_based_tip(smooth_fn):
     "name",
     ["strength_gradient", "softening", "youngs_modulus", "wl_shear_modulus", "steady_length"],
 )
-def test_gradient_matches_central_differences_at_two_steps(smooth_fn, name):
+def test_gradient_brackets_central_differences_at_two_steps(smooth_fn, name):
+    """The surrogate is continuous and piecewise smooth: it has kinks where a weak-layer
+    segment enters or leaves its partly failed range (measured on this PST: the slope in
+    theta doubles over theta 798.4-800.9 while two segments are partly failed). So the
+    difference quotient over [x, x + h] must lie between the AD derivatives at its two
+    ends (a jump, which AD cannot see, would put it far outside), within 5 %."""
     f, g = smooth_fn
-    ad = float(getattr(g(PARAMS), name))
     x0 = float(getattr(PARAMS, name))
-    assert ad != 0.0
-    for rel in (2.5e-3, 5e-3):
-        h = rel * abs(x0)
-        fd = (
-            float(f(dataclasses.replace(PARAMS, **{name: x0 + h})))
-            - float(f(dataclasses.replace(PARAMS, **{name: x0 - h})))
-        ) / (2 * h)
-        assert abs(fd / ad - 1) <= 0.05, (name, rel, ad, fd)
+    h = 2.5e-3 * abs(x0)
+    xs = [x0 - h, x0, x0 + h]
+    qs = [dataclasses.replace(PARAMS, **{name: x}) for x in xs]
+    vals = [float(f(q)) for q in qs]
+    ads = [float(getattr(g(q), name)) for q in qs]
+    assert all(a != 0.0 for a in ads), (name, ads)
+    for i in range(2):
+        fd = (vals[i + 1] - vals[i]) / h
+        lo, hi = sorted(ads[i : i + 2])
+        tol = 0.05 * max(abs(lo), abs(hi))
+        assert lo - tol <= fd <= hi + tol, (name, xs[i], ads[i : i + 2], fd)
 
 
 def test_tensile_strength_gradient_matches_central_differences():
@@ -163,7 +170,7 @@ def test_grad_without_a_layout_is_a_clear_error():
 
 def _checkpointed_value_and_grad(params: PSTParams, setup: PSTSetup, mode: object):
     from damjax.core.loop import integrate_pure
-    from damjax.diagnostics import SMOOTH_WIDTH, smooth_arrest_position
+    from damjax.diagnostics import smooth_arrest_position
 
     layout = pst.make_layout(params, setup)
 
@@ -171,7 +178,7 @@ def _checkpointed_value_and_grad(params: PSTParams, setup: PSTSetup, mode: objec
         model, state = pst.build(q, setup, layout)
         final, _ = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps, mode)
         # the plastic slab's surrogate needs the wide ramp (see the sigma_t test above)
-        return smooth_arrest_position(model, final, 0.5 if layout.plastic else SMOOTH_WIDTH)
+        return smooth_arrest_position(model, final, 0.5 if layout.plastic else None)
 
     return jax.jit(jax.value_and_grad(f))(params)
 

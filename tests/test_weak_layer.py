@@ -4,6 +4,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from damjax.materials import weak_layer as wl
 
@@ -71,3 +73,54 @@ def test_strength_profile():
     x = jnp.asarray([0.0, 10.0, 20.0, 30.0])
     tp = wl.strength_profile(x, 1000.0, 20.0, 150.0)
     np.testing.assert_allclose(np.asarray(tp), [1000, 1000, 1000, 2500])
+
+
+# --- failure without events: the failed fraction averaged over a step -------------------
+
+
+def _numeric_average(u_max, slip, rate, u_b, w, dt, n=200_000):
+    tau = (np.arange(n) + 0.5) / n
+    path = np.maximum(u_max, slip + max(rate, 0.0) * dt * tau)
+    return float(np.mean(np.clip((path - u_b) / w + 0.5, 0.0, 1.0)))
+
+
+@given(
+    u_max=st.floats(0.0, 3e-4),
+    back=st.floats(0.0, 1.0),
+    rate=st.floats(-0.5, 0.5),
+    dt=st.floats(1e-5, 1e-3),
+)
+@settings(max_examples=200, deadline=None)
+def test_failed_fraction_in_step_is_the_average_over_a_linear_slip_path(u_max, back, rate, dt):
+    slip = u_max * back  # the slip never exceeds its history
+    u_b, w = 2e-4, 1e-5
+    got = float(wl.failed_fraction_in_step(u_max, slip, rate, u_b, w, dt))
+    assert got == pytest.approx(_numeric_average(u_max, slip, rate, u_b, w, dt), abs=1e-4)
+
+
+def test_failed_fraction_in_step_is_continuous_in_the_crossing_time():
+    """A front that crosses the particle within one step: the average moves smoothly with
+    the slip at the start of the step (no jump where the crossing moves to the next step)."""
+    u_b, w, dt, rate = 2e-4, 1e-6, 1e-4, 0.1  # the front crosses in 1 % of a step
+    slips = np.linspace(u_b - 2 * rate * dt, u_b + 0.5 * rate * dt, 2001)
+    avg = np.array([float(wl.failed_fraction_in_step(s, s, rate, u_b, w, dt)) for s in slips])
+    assert avg[0] == 0.0 and avg[-1] == 1.0
+    # steps of 2.5 rate dt / 2000 in slip, slope at most 1 / (rate dt): no jump
+    assert np.max(np.abs(np.diff(avg))) < 1.5e-3
+    g = jax.grad(lambda s: wl.failed_fraction_in_step(s, s, rate, u_b, w, dt))
+    mid = u_b - 0.5 * rate * dt  # crossing in the middle of the step
+    assert float(g(mid)) == pytest.approx(1.0 / (rate * dt), rel=1e-3)
+
+
+def test_failed_fraction_and_sawn_fraction_limits():
+    inf = jnp.inf
+    assert float(wl.failed_fraction(1.0, inf, 1e-6)) == 0.0  # unbreakable
+    assert float(wl.failed_fraction_in_step(1.0, 1.0, 1.0, inf, 1e-6, 1e-4)) == 0.0
+    assert float(wl.failed_fraction(2e-4, 2e-4, 1e-5)) == 0.5  # centre at u_r
+    assert float(wl.sawn_fraction(1.0, 0.9, 1.3)) == pytest.approx(0.25)
+    assert float(wl.sawn_fraction(0.5, 0.9, 1.3)) == 0.0  # behind the saw
+    assert float(wl.sawn_fraction(2.0, 1.3, 1.3)) == 1.0  # saw stopped before it
+    gs = jax.grad(wl.failed_fraction_in_step, argnums=(0, 1, 2, 3, 4))(
+        1.0, 1.0, 1.0, inf, 1e-6, 1e-4
+    )
+    assert all(np.isfinite(float(v)) for v in gs)

@@ -52,8 +52,9 @@ def invert(
     the logarithms of the fields (positivity), gradients through the full solver
     (`damjax.arrest_position_smooth`). One observation cannot identify two fields: the
     returned Gauss-Newton Hessian then is singular (condition number inf).
-    ``smooth_width``: damage-ramp width of the surrogate (default
-    `damjax.diagnostics.SMOOTH_WIDTH`); use 0.5 where slab fractures stop the crack.
+    ``smooth_width``: None (default) differentiates the continuous crack length; a
+    damage-ramp width (0.5) where slab fractures stop the crack
+    (`damjax.diagnostics.smooth_arrest_position`).
     The estimates are the best iterate (lowest loss) of the Adam run, not the last:
     Adam's iterates oscillate around the minimum.
     """

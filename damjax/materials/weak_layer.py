@@ -66,10 +66,17 @@ def cohesive_factor(
     return jnp.where(broken, 0.0, k)
 
 
-def _ramp_integral(z: Any) -> Any:
-    """Antiderivative of clip(z, 0, 1): 0, z^2 / 2, z - 1/2 (C1)."""
-    zc = jnp.clip(z, 0.0, 1.0)
-    return 0.5 * zc * zc + jnp.maximum(z - 1.0, 0.0)
+def _mean_ramp(a: Any, d: Any) -> Any:
+    """Mean of clip(z, 0, 1) over z in [a, a + d], d >= 0, without cancellation: the
+    parts of the interval below 0, inside [0, 1] and above 1 are measured separately
+    (a difference of antiderivatives loses all digits in float32 when d << 1)."""
+    pos = d > 0.0
+    d_s = jnp.where(pos, d, 1.0)
+    below = jnp.clip(-a, 0.0, d_s)
+    above = jnp.clip((a - 1.0) + d_s, 0.0, d_s)
+    inside = d_s - below - above
+    mean = (inside / d_s) * (jnp.clip(a, 0.0, 1.0) + 0.5 * inside) + above / d_s
+    return jnp.where(pos, mean, jnp.clip(a, 0.0, 1.0))
 
 
 def front_width(u_break: Any, spacing: Any, elastic_length: Any) -> Any:
@@ -107,16 +114,13 @@ def failed_fraction_in_step(
     """
     finite = jnp.isfinite(u_break)
     u_b = jnp.where(finite, u_break, 1.0)
-    u_end = slip + jnp.maximum(slip_rate, 0.0) * dt
-    z_m = (u_max - u_b) / width + 0.5
-    z_e = (u_end - u_b) / width + 0.5
-    grows = z_e > z_m + 1e-6
+    rise = jnp.maximum(slip_rate, 0.0) * dt  # slip gained over the step
+    past = jnp.maximum(slip + rise - u_max, 0.0)  # by how much it passes the history
     # part of the step before the slip passes the history: failed fraction of u_max
-    den = jnp.where(grows, u_end - slip, 1.0)
-    t_pass = jnp.where(grows, jnp.clip((u_max - slip) / den, 0.0, 1.0), 1.0)
-    dz = jnp.where(grows, z_e - z_m, 1.0)
-    mean_ramp = (_ramp_integral(z_e) - _ramp_integral(z_m)) / dz
-    avg = t_pass * jnp.clip(z_m, 0.0, 1.0) + (1.0 - t_pass) * jnp.where(grows, mean_ramp, 0.0)
+    t_pass = jnp.where(past > 0.0, 1.0 - past / jnp.where(rise > 0.0, rise, 1.0), 1.0)
+    t_pass = jnp.clip(t_pass, 0.0, 1.0)  # u_max lags the slip by round-off at most
+    z_m = (u_max - u_b) / width + 0.5
+    avg = t_pass * jnp.clip(z_m, 0.0, 1.0) + (1.0 - t_pass) * _mean_ramp(z_m, past / width)
     return jnp.where(finite, avg, 0.0)
 
 

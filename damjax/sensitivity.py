@@ -1,0 +1,100 @@
+"""Check a gradient of the crack length on your own case.
+
+A brittle weak layer makes the event-based arrest position a staircase in every
+parameter, so a finite difference smaller than one particle step says nothing. What a
+calibration needs is the trend: `gradient_check` compares the reverse-mode gradient of
+the continuous crack length (`damjax.arrest_position_smooth`) with the least-squares
+slope of the event-based arrest over a window of the parameter::
+
+    check = damjax.gradient_check(params, setup, "strength_gradient")
+    print(check)   # AD vs event-based slope, the window, the verdict
+
+The window runs as one vmapped `damjax.sweep` and one vmapped gradient (about four
+forward runs per member). The verdict compares the window mean of the AD derivative with
+the slope (`damjax.diagnostics.GradientCheck` says why); the derivative at the centre is
+reported too. Measured on a 40 m PST (L_ss 10 m, theta 800 Pa/m, dx 0.04 m, softening 0,
+float64, theta 720-880 Pa/m, 2026-11-25): AD mean -0.01718, at the centre -0.01646,
+event-based slope -0.01723 m/(Pa/m); the derivative runs from -0.0207 to -0.0115 across
+the window as L_ca flattens with theta.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from damjax import pst
+from damjax.diagnostics import GradientCheck, compare_gradient
+from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
+from damjax.sweep import sweep
+from damjax.validation import ensure_x64, validate
+
+
+def gradient_check(
+    params: PSTParams,
+    setup: PSTSetup,
+    field: str,
+    *,
+    rel_window: float = 0.1,
+    n_runs: int = 11,
+    tolerance: float = 0.1,
+    batch_size: int | None = None,
+) -> GradientCheck:
+    """AD of the continuous crack length [m] with respect to ``field`` over the window
+    field x (1 - rel_window .. 1 + rel_window) (``n_runs`` runs, centred on ``params``)
+    against the least-squares slope of the event-based arrest over the same runs.
+
+    Args:
+        params: the case (concrete values); ``field`` must be a finite, nonzero scalar.
+        setup: numerics; the window and the gradient share one layout (the time step of
+            the stiffest member).
+        field: a scalar field of `PSTParams`, e.g. "strength_gradient".
+        rel_window: half-width of the window relative to the value, in (0, 0.5].
+        n_runs: runs in the window, odd, in [3, 1001].
+        tolerance: relative error accepted for the verdict, > 0.
+        batch_size: run the window's forward runs and gradients in slices of this many
+            members (`jax.lax.map`; default: all at once), bounding memory: a gradient
+            holds about twice a forward run's memory per member.
+    """
+    names = [f.name for f in dataclasses.fields(PSTParams)]
+    if field not in names or field in PROFILE_FIELDS:
+        raise ValueError(f"field = {field!r}: must be a scalar field of PSTParams ({names})")
+    if not 0.0 < rel_window <= 0.5:
+        raise ValueError(f"rel_window = {rel_window!r}: must be in (0, 0.5]")
+    if (
+        isinstance(n_runs, bool)
+        or not isinstance(n_runs, int)
+        or not 3 <= n_runs <= 1001
+        or n_runs % 2 == 0
+    ):
+        raise ValueError(f"n_runs = {n_runs!r}: must be an odd integer in [3, 1001]")
+    if not tolerance > 0.0:
+        raise ValueError(f"tolerance = {tolerance!r}: must be in (0, inf)")
+    x0 = getattr(params, field)
+    if np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
+        raise ValueError(f"{field} = {x0!r}: the check needs a finite, nonzero scalar value")
+    validate(params, setup)
+    ensure_x64(setup.dtype)
+    x0 = float(x0)
+    xs = np.linspace(x0 * (1 - rel_window), x0 * (1 + rel_window), n_runs)
+    dtype = jnp.float64 if setup.dtype == "float64" else jnp.float32
+    batch = dataclasses.replace(params, **{field: jnp.asarray(xs, dtype)})
+    results = sweep(batch, setup, batch_size=batch_size)
+    arrests = [
+        np.nan if r.summary["arrest_position_m"] is None else r.summary["arrest_position_m"]
+        for r in results
+    ]
+    layout = pst.make_layout(batch, setup)  # the window's time step: stable for all
+
+    def length(v: jax.Array) -> jax.Array:
+        return pst.arrest_position_smooth(dataclasses.replace(params, **{field: v}), setup, layout)
+
+    grad = jax.grad(length)
+    ads = jax.jit(lambda v: jax.lax.map(grad, v, batch_size=batch_size))(jnp.asarray(xs, dtype))
+    return compare_gradient(field, xs, np.asarray(ads, float), arrests, tolerance)
+
+
+__all__ = ["gradient_check"]
