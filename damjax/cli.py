@@ -80,6 +80,30 @@ def _weak_layer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a layer index (an integer)") from None
 
 
+def _probability(text: str) -> float:
+    v = _number(text)
+    if not 0.0 <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be in [0, 1]")
+    return v
+
+
+def _positive(text: str) -> float:
+    v = _number(text)
+    if not (math.isfinite(v) and v > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a number > 0")
+    return v
+
+
+def _count(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer >= 1")
+    return v
+
+
 def _enable_compilation_cache() -> None:
     """Persistent XLA cache: repeated CLI runs skip most of the compilation."""
     import jax
@@ -414,6 +438,36 @@ def cmd_resume(ns: argparse.Namespace) -> int:
     return _report(outcome, ns.json)
 
 
+def cmd_export(ns: argparse.Namespace) -> int:
+    """``damjax export RUN_DIR --to gis|avaframe OUT``: `damjax.export.gis.export_gis` or
+    `damjax.export.avaframe.export_avaframe` (needs the ``geo`` extra)."""
+    from damjax import io
+
+    kw: dict[str, Any] = dict(
+        scenario=ns.scenario, crs=ns.crs, threshold=ns.threshold, min_cells=ns.min_cells
+    )
+    try:
+        if ns.to == "gis":
+            from damjax.export import gis
+
+            files = gis.export_gis(
+                ns.run, ns.out, resolution=ns.resolution, formats=tuple(ns.formats), **kw
+            )
+        else:
+            from damjax.export import avaframe
+
+            files = avaframe.export_avaframe(
+                ns.run, ns.out, name=ns.name, thickness=ns.thickness, **kw
+            )
+    except (FileNotFoundError, ImportError) as exc:
+        raise ValueError(f"{ns.run}: {exc}" if str(ns.run) not in str(exc) else str(exc)) from None
+    if ns.json:
+        print(io.to_json({k: str(v) for k, v in files.items()}))
+    else:
+        _print_summary({k: str(v) for k, v in files.items()})
+    return 0
+
+
 def cmd_show(ns: argparse.Namespace) -> int:
     from damjax import io, runner
 
@@ -466,6 +520,54 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("dir", metavar="DIR", help="output folder holding checkpoint.npz")
     _run_flags(p, "checkpoint interval (default: that of the interrupted run)")
     p.set_defaults(func=cmd_resume)
+
+    p = sub.add_parser(
+        "export",
+        help="export a slope run: GeoTIFFs and release polygons, or an AvaFrame directory",
+        description="Write a slope run's (or ensemble's) GeoTIFFs and release-zone polygons "
+        "in the DEM's CRS (--to gis OUT) or an AvaFrame avalanche directory with the release "
+        "zones in Inputs/REL (--to avaframe AVADIR). Needs pip install 'damjax[geo]'.",
+    )
+    p.add_argument("run", metavar="RUN_DIR", help="run folder (results.nc) or ensemble folder")
+    p.add_argument("out", metavar="OUT", help="output folder (AVADIR for --to avaframe)")
+    p.add_argument("--to", choices=("gis", "avaframe"), required=True, help="what to write")
+    p.add_argument("--scenario", metavar="FILE", default=None, help="the scenario file (ensembles)")
+    p.add_argument("--crs", default=None, help="override the DEM's CRS, e.g. EPSG:2056")
+    p.add_argument(
+        "--threshold",
+        type=_probability,
+        default=0.5,
+        help="ensembles: zones where release probability >= this (default 0.5)",
+    )
+    p.add_argument(
+        "--min-cells",
+        dest="min_cells",
+        type=_count,
+        default=4,
+        help="leave out zones of fewer cells (default 4)",
+    )
+    p.add_argument(
+        "--formats",
+        nargs="+",
+        choices=("gpkg", "shp", "geojson"),
+        default=["gpkg", "shp"],
+        help="--to gis: polygon formats (default gpkg shp)",
+    )
+    p.add_argument(
+        "--resolution",
+        type=_positive,
+        default=None,
+        help="--to gis: GeoTIFF pixel size [m] (default about dx)",
+    )
+    p.add_argument("--name", default=None, help="--to avaframe: release shapefile name")
+    p.add_argument(
+        "--thickness",
+        type=_positive,
+        default=None,
+        help="--to avaframe: one release thickness [m] (default each zone's mean)",
+    )
+    p.add_argument("--json", action="store_true", help="print the files as one JSON object")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("show", help="print the summary and re-plot a finished run in DIR")
     p.add_argument("dir", metavar="DIR", help="output folder holding results.nc")

@@ -244,3 +244,41 @@ def test_avaframe_directory_reads_back_with_avaframe(run_dir, tmp_path):
     assert got["names"] == ["rel1"]
     assert float(got["thickness"][0]) == pytest.approx(float(zones["thickness"].iloc[0]))
     assert ("LV95" in got["crs"] or "2056" in got["crs"]) and got["npoints"] >= 5
+
+
+def test_cli_export_gis_and_avaframe(run_dir, tmp_path, capsys):
+    from damjax.cli import main
+
+    out = tmp_path / "gis"
+    assert main(["export", str(run_dir), "--to", "gis", str(out), "--formats", "geojson"]) == 0
+    text = capsys.readouterr().out
+    assert "released" in text and str(out / "release_zones.geojson") in text
+    with rasterio.open(out / "released.tif") as src:
+        assert src.crs.to_epsg() == 2056
+    zones = gpd.read_file(out / "release_zones.geojson")
+    assert zones.crs.to_epsg() == 2056 and len(zones) == 1
+    assert not (out / "release_zones.gpkg").exists()  # only the formats asked for
+    ava = tmp_path / "ava"
+    argv = ["export", str(run_dir), "--to", "avaframe", str(ava), "--name", "rel", "--json"]
+    assert main(argv) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert Path(got["release"]) == ava / "Inputs" / "REL" / "rel.shp"
+    rel = gpd.read_file(got["release"])
+    assert float(rel["thickness"].iloc[0]) == pytest.approx(float(zones["thickness"].iloc[0]))
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--to", "gis"], "no results.nc or ensemble.nc"),
+        (["--to", "kml"], "invalid choice: 'kml'"),
+        (["--to", "gis", "--threshold", "2"], "'2': must be in [0, 1]"),
+        (["--to", "avaframe", "--thickness", "-1"], "'-1': must be a number > 0"),
+    ],
+)
+def test_cli_export_errors_are_one_line(tmp_path, capsys, argv, message):
+    from damjax.cli import main
+
+    assert main(["export", str(tmp_path), str(tmp_path / "out"), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("damjax: error: ") and message in err[0], err
