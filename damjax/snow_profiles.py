@@ -26,6 +26,12 @@ Readers:
   `snowpat` pins numpy < 2 (jax needs numpy >= 2), so it is not a dependency; the tests
   compare this reader with snowpat's where snowpat is importable.
 
+Why one module: both readers (about 100 and 140 lines) exist only to fill the same
+`SnowProfile` / `Layer` types, and what the module is for (`SnowProfile.slab`,
+`pst_params`) needs those types, E(rho) (`youngs_modulus`, 70 lines, used by `slab`) and
+the hand hardness scale together; split by format, each part would import the others.
+A third format is the point to make it a package (``snow_profiles/caaml.py``, ...).
+
 Conventions:
 
 - depths are measured from the snow surface and taken as slope-normal (the convention of
