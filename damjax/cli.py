@@ -1,10 +1,11 @@
-"""Command line: ``damjax pst|scenarios|run|resume|show|ensemble ...`` (``damjax CMD --help``).
+"""Command line: ``damjax pst|scenarios|run|resume|show|ensemble|export`` (``damjax CMD --help``).
 
-``damjax pst [--flag value ...] [--json] [--plot FILE]`` runs a PST from flags. Scenario
+``damjax pst [--flag value ...] [--json] [--plot FILE]`` runs a PST from flags (or from a
+snow profile: ``--profile FILE --weak-layer N``). Scenario
 files: ``damjax scenarios`` (list the shipped ones), ``damjax run SCENARIO
 [--out DIR] [--json] [--quiet] [--checkpoint-every SECONDS]``, ``damjax resume DIR``,
 ``damjax show DIR``; ``damjax ensemble SCENARIO --members N [--out DIR] [--json] [--quiet]``
-(`damjax.ensemble`).
+(`damjax.ensemble`); ``damjax export RUN_DIR --to gis|avaframe OUT`` (`damjax.export`).
 
 Bad input exits with status 2 and one line per problem (flag or TOML key, value, valid
 range); never a traceback. A runtime fault exits with status 3 after writing the results
