@@ -499,6 +499,15 @@ def slope() -> None:
 
 
 @case
+def ensemble16() -> None:
+    """16 Fig. 12a slope members (dx 0.2 m, 2 s): ensemble vs 16 sequential; 2 processes vs 1."""
+    from benchmarks import ensemble16 as e
+
+    for row in e.rows():
+        emit(**row)
+
+
+@case
 def mpm88() -> None:
     """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers vs Taichi CPU."""
     from benchmarks import mpm88 as m

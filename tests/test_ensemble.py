@@ -365,6 +365,9 @@ def test_share_is_round_robin():
 
 
 def test_cli_errors_are_one_line(tiny, capsys):
+    import jax
+
+    jax.devices()  # backends started: the command line leaves this process's devices as they are
     assert ensemble.main([str(tiny), "--members", "0"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == "damjax: error: --members = 0: must be an integer >= 1"

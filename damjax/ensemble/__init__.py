@@ -47,6 +47,10 @@ The slice size is chosen from memory: the step compiled for a trial slice report
 peak (arguments, outputs and temporaries, XLA's `memory_analysis`), and the slice is the
 largest that fits ``memory_fraction`` of the free memory (host memory on CPU, the device's
 limit on GPU), at most 8 members per device (a kill loses at most one slice per process).
+On CPU devices a slice holds one member per device: vmapping slope members on a CPU device
+ran slower per member than running them one at a time, so a CPU host is split into one
+device per core instead (``damjax ensemble --cpu-devices``, by default the cores this
+process may use) and the devices run their members side by side.
 
 Files in the output folder (each written atomically, `damjax.io.atomic_path`):
 

@@ -39,6 +39,10 @@ from damjax.validation import ensure_x64
 
 PLAN_FILE = "plan.json"
 MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
+# On a CPU device a vmapped slice of slope members ran slower per member than the members
+# one at a time (Fig. 12a slope, 0.3 s, 2 cores, 2026-11-25: 14 s per member vmapped by 2,
+# 10 s sequential); CPU members run one per device, a host split into one device per core
+# (`damjax ensemble --cpu-devices`), the devices running their members side by side.
 MEMORY_FRACTION = 0.5  # of the free memory a slice may use
 
 
@@ -292,6 +296,8 @@ def run(
         per_dev_cap = max(1, math.ceil(ens.members / (n_dev * n_proc)))
         if given is not None:
             per_dev, chosen = max(1, math.ceil(given / n_dev)), "given"
+        elif all(d.platform == "cpu" for d in devices):
+            per_dev, chosen = 1, "memory"  # on CPU: see MAX_PER_DEVICE
         else:
             per_dev, chosen = min(MAX_PER_DEVICE, per_dev_cap), "memory"
         while True:

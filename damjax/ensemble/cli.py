@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +46,8 @@ def add_arguments(p: Any) -> None:
         type=int,
         default=None,
         metavar="D",
-        help="on CPU: split the host into D devices, each running its own members",
+        help="on CPU: split the host into D devices, each running its own members "
+        "(default: one per core this process may use; 1 with several processes)",
     )
     g = p.add_argument_group("several processes (jax.distributed)")
     g.add_argument(
@@ -58,6 +60,25 @@ def add_arguments(p: Any) -> None:
     g.add_argument("--process-id", type=int, metavar="I", help="this process, 0..P-1 (manual)")
 
 
+def _set_cpu_devices(n: int | None) -> None:
+    """Split the CPU into ``n`` devices (None: one per core this process may use) if JAX
+    has not started its backends yet; afterwards the devices stay as they are. Only the
+    CPU backend is affected (a GPU run keeps its GPUs)."""
+    if n is None:
+        n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    try:
+        from jax._src import xla_bridge
+
+        if xla_bridge.backends_are_initialized():
+            return
+    except (ImportError, AttributeError):  # pragma: no cover - another JAX layout
+        pass
+    try:
+        jax.config.update("jax_num_cpu_devices", max(1, int(n or 1)))
+    except Exception:  # noqa: BLE001 - backends already started: keep their devices
+        pass
+
+
 def command(ns: Any) -> int:
     """Run ``damjax ensemble`` from parsed flags; returns the exit status (ValueError on
     bad input, one line per problem)."""
@@ -67,11 +88,11 @@ def command(ns: Any) -> int:
         raise ValueError(f"--members = {ns.members}: must be an integer >= 1")
     if ns.slice_size is not None and ns.slice_size < 1:
         raise ValueError(f"--slice-size = {ns.slice_size}: must be an integer >= 1")
-    if ns.cpu_devices is not None:
-        if ns.cpu_devices < 1:
-            raise ValueError(f"--cpu-devices = {ns.cpu_devices}: must be an integer >= 1")
-        jax.config.update("jax_num_cpu_devices", ns.cpu_devices)
+    if ns.cpu_devices is not None and ns.cpu_devices < 1:
+        raise ValueError(f"--cpu-devices = {ns.cpu_devices}: must be an integer >= 1")
     manual = (ns.coordinator, ns.num_processes, ns.process_id)
+    several = ns.distributed or any(v is not None for v in manual)
+    _set_cpu_devices(ns.cpu_devices if ns.cpu_devices is not None else 1 if several else None)
     if any(v is not None for v in manual):
         if ns.distributed:
             raise ValueError("--distributed: detects the cluster; leave out --coordinator etc.")
