@@ -1,4 +1,4 @@
-"""Issue 3 acceptance: a sweep like the paper's Fig. 9 (elasto-plastic slab, softening 1),
+"""Acceptance sweep: a sweep like the paper's Fig. 9 (elasto-plastic slab, softening 1),
 and the two Fig. 8 cases with the non-default lateral condition.
 
     python -m benchmarks.fig9_sweep                    # sweep at dx 0.04 m + dx 0.02 check

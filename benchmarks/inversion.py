@@ -1,4 +1,4 @@
-"""Issue 4 acceptance: joint inversion of the weak-layer softening delta and the slab tensile
+"""Joint inversion of the weak-layer softening delta and the slab tensile
 strength sigma_t from noisy observed arrest positions, through the solver.
 
     python -m benchmarks.inversion                  # defaults below, a few minutes on 1 core

@@ -1,4 +1,4 @@
-"""Issue 5 acceptance: paper Fig. 12a's generic slope over 5 GRF seeds, and 2 controls.
+"""Paper Fig. 12a's generic slope over 5 GRF seeds, and 2 controls.
 
 The 50 m x 60 m generic slope (`damjax.slope.generic.FIG12A`) and the two controls
 (the same slope without the up-slope trend; a planar 35 deg slope with the trend).
@@ -17,7 +17,7 @@ the least-squares mean over the whole run (``*_mean_over_cs``, which averages th
 acceleration after the saw and the deceleration before the arrest in). All runs share
 one compiled step (same shapes), so only the first pays the compilation.
 
-Measured (stop 16; the geometry the paper states, `damjax.slope.generic.FIG12A`:
+Measured (2026-11-24; the geometry the paper states, `damjax.slope.generic.FIG12A`:
 50 m down-slope x 60 m across along the surface, toe from 30 deg at the lower edge to 35 deg
 at 10 m, a 10 m convex roll to 20 deg at the top; strength 1 kPa up to x = 2 m, then
 +20 Pa/m, GRF std 100 Pa, correlation length 8 m; start at the weakest spot with x in
@@ -123,7 +123,7 @@ test suite ran alongside): 37.3 / 32.4 / 39.5 / 41.1 / 39.9 m from the start (dx
 dx 0.2 m table and the one below come from the field, not from the grid.
 
 Without `field_dx`, all five seeds on dx 0.1 m (`python -m benchmarks.slope_acceptance --dx 0.1
---no-controls`, 300 000 particles, 8300 steps = 3 s, 349-419 s per run, stop 12; rows in
+--no-controls`, 300 000 particles, 8300 steps = 3 s, 349-419 s per run, 2026-11-23; rows in
 `results_60m_slope/slope_acceptance_results_dx0.1.jsonl`). The GRF is drawn on the
 simulation grid, so each seed is a different sample of the field than on dx 0.2 m (and
 starts at a different weak spot):
@@ -147,7 +147,7 @@ The 1D PST of the comparison above arrests 28.1 m from the start (dx 0.04) with 
 the start (the expected strength 12 m above the lower edge of a field rising from 1 kPa
 there, an earlier setting of this case, which gave 21-30 m from the start).
 
-With a crack-band slab (`--fracture-energy 1.0`, G_f = 1 J/m^2, stop 14, 2-core Intel Xeon;
+With a crack-band slab (`--fracture-energy 1.0`, G_f = 1 J/m^2, 2026-11-24, 2-core Intel Xeon;
 rows in `results_60m_slope/slope_acceptance_results_gf1.jsonl`) the slab breaks earlier and
 the up-slope arrests come *closer* to the start, not farther: 32.2 / 30.0 / 27.2 / 36.2 / 37.0 m
 (positions 39.9-49.1 m, mean 32.5, std 3.7 m; 0 of 5 in 40-50 m); the front was still
@@ -157,7 +157,7 @@ Controls: no trend runs to the top (47.8 m), the planar slope with the trend now
 55-79 s per run (the CPU was shared). The paper's plastic slab (the default) stays the
 acceptance configuration.
 
-Roll length (stop 15, `--roll-length 10` / `20 --no-controls`, rows in
+Roll length (2026-11-24, `--roll-length 10` / `20 --no-controls`, rows in
 `results_60m_slope/slope_acceptance_results_roll10.jsonl` and `..._roll20.jsonl`, 32 s per
 run; the same fields and starts as the table above, 15 m being the default then). The
 arrest follows the roll:

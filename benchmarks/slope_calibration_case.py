@@ -22,7 +22,7 @@ The synthetic field case (small, so it runs in minutes on 2 cores):
 Prints JSON lines: the reference run, each iteration, and the result with the relative
 error of sigma_t.
 
-Measured with crack-band softening (G_f = 1 J/m^2, stop 13, 2-core Intel Xeon, other jobs
+Measured with crack-band softening (G_f = 1 J/m^2, 2026-11-24, 2-core Intel Xeon, other jobs
 running during the reference run): the reference (dx 0.0625 m, 245 760 particles, 6500
 steps, 348 s) releases 58.5 m^2, arrest 5.48 m up-slope of the start (the truth releases
 57.7 / 56.9 / 57.8 m^2 on dx 0.25 / 0.125 m with 1 particle per cell and 0.125 m with
@@ -38,7 +38,7 @@ Measured with the perfectly plastic slab (`--fracture-energy inf`; quiet 2-core 
 particles, 6500 steps, 241 s) releases 65.9 m^2, arrest 6.17 m up-slope of the start;
 calibration 15 360 particles, 3250 steps, 58 s per gradient, 12 Adam steps in 693 s:
 sigma_t 2500 -> 3289 (loss 0.0124) -> 3461 -> 3217 (loss 0.0103, the estimate) -> 3046:
-**-19.6 %** of the true 4000 Pa. Re-run at stop 12 (the
+**-19.6 %** of the true 4000 Pa. Re-run on 2026-11-23 (the
 per-step reverse-mode scheme and the row layout of strains): reference 201.9 s, iterates
 within 2 Pa of the ones above, the estimate 3218 Pa at iteration 8 (-19.6 %), 740.6 s for
 the 12 gradients (short test runs overlapped part of it).

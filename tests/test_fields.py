@@ -203,7 +203,7 @@ def test_fit_grf_recovers_parameters():
 def test_fit_grf_multistart_escapes_a_local_maximum():
     """The shipped map (25 x 16 nodes, truth std 100 Pa, l 8 m) has a second likelihood
     maximum at l 8.7 m, std 254 Pa, where a single start from a fifth of the map size
-    ended (stop 13). The default fit starts from several lengths and keeps the best."""
+    ended (before 2026-11-24). The default fit starts from several lengths and keeps the best."""
     x, y, tau = fields.load_strength_map(synthetic_strength_map_path())
     X, Y = np.meshgrid(x, y[:16], indexing="ij")
     t = tau[:, :16]
