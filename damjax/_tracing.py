@@ -4,7 +4,8 @@ A simulation needs a few concrete numbers before it can trace anything (the grid
 step count, whether the slab is plastic): `concrete_tree` recovers them from tracers
 where JAX still holds them (the primal values under `jax.grad` / `jax.jvp`, all members
 of a batch under `jax.vmap`) and returns None inside `jax.jit`, where only shapes are
-known. `dtype_name` accepts every way of naming a float dtype.
+known. `concrete_members` splits a `jax.vmap` batch into its members, for checks that
+take one member at a time. `dtype_name` accepts every way of naming a float dtype.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any
 import jax
 import numpy as np
 
-__all__ = ["concrete_tree", "concrete_value", "dtype_name", "is_traced"]
+__all__ = ["concrete_members", "concrete_tree", "concrete_value", "dtype_name", "is_traced"]
 
 
 def is_traced(tree: Any) -> bool:
@@ -55,6 +56,54 @@ def concrete_tree(tree: Any) -> Any:
     if any(v is None for v in values):
         return None
     return jax.tree.unflatten(treedef, values)
+
+
+def _unwrap(x: Any) -> tuple[Any, list[int]]:
+    """The concrete value behind ``x`` (None inside `jax.jit`) and the batch axes that
+    `jax.vmap` levels added to it, innermost level first."""
+    from jax._src import core
+
+    axes: list[int] = []
+    for _ in range(64):
+        if not isinstance(x, core.Tracer):
+            return x, axes
+        to_concrete = getattr(core, "to_concrete_value", None)
+        value = to_concrete(x) if to_concrete is not None else None
+        if value is not None:
+            return value, axes
+        if hasattr(x, "primal"):
+            x = x.primal
+        elif hasattr(x, "val") and hasattr(x, "batch_dim"):
+            if isinstance(x.batch_dim, int):
+                axes.append(x.batch_dim)
+            x = x.val
+        else:
+            return None, axes
+    return None, axes
+
+
+def concrete_members(tree: Any) -> list[Any] | None:
+    """The concrete values behind ``tree``, one tree per member of a `jax.vmap` batch
+    (``[concrete_tree(tree)]`` when nothing is batched); None inside `jax.jit` and for
+    nested `jax.vmap` batches (then only the runtime guards check the values)."""
+    leaves, treedef = jax.tree.flatten(tree)
+    values, axes = [], []
+    for x in leaves:
+        value, ax = _unwrap(x)
+        if value is None or len(ax) > 1:
+            return None
+        values.append(value)
+        axes.append(ax[0] if ax else None)
+    sizes = {np.shape(v)[a] for v, a in zip(values, axes, strict=True) if a is not None}
+    if len(sizes) > 1:
+        return None
+    if not sizes:
+        return [jax.tree.unflatten(treedef, values)]
+    pairs = [(v, a) if a is None else (np.asarray(v), a) for v, a in zip(values, axes, strict=True)]
+    return [
+        jax.tree.unflatten(treedef, [v if a is None else np.take(v, i, axis=a) for v, a in pairs])
+        for i in range(sizes.pop())
+    ]
 
 
 def dtype_name(dtype: Any) -> str | None:

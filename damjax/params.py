@@ -19,6 +19,8 @@ from typing import Any
 
 import equinox as eqx
 
+from damjax._tracing import dtype_name
+
 
 class SnowParams(eqx.Module):
     """Slab and weak-layer parameters of a PST or a slope (paper baseline by default).
@@ -116,8 +118,10 @@ class PSTSetup:
             "constrained" (eps_yy = 0, modulus E' = E / (1 - nu^2), periodic in y).
         cfl: Courant number C in dt = C dx / c_p, in (0, 1).
         particles_per_cell: particles per cell and per dimension, in [1, 64].
-        dtype: "float32" or "float64" (float64 switches JAX's 64-bit mode on for the whole
-            process, with a warning; traced runs need it switched on beforehand).
+        dtype: "float32" or "float64", as a string or a numpy / JAX dtype
+            (``jnp.float64``; stored as its name). float64 switches JAX's 64-bit mode on
+            for the whole process, with a warning; traced runs need it switched on
+            beforehand.
         chunk_steps: time steps per jitted chunk, in [1, 10^7] (progress and snapshot
             granularity; at most the run's step count; the step count is rounded up to a
             multiple of it, dt shrinks accordingly).
@@ -154,6 +158,18 @@ class PSTSetup:
     slab_fracture: str = "paper"
     seed: int = 0
 
+    def __post_init__(self) -> None:
+        _normalise_dtype(self)
+
+
+def _normalise_dtype(setup: Any) -> None:
+    """A setup's dtype as its canonical name: "float64", jnp.float64, np.float64 and
+    np.dtype("float64") are one setting (and one compiled program). Anything else is
+    kept as given, for validation to name."""
+    name = dtype_name(setup.dtype) if not isinstance(setup.dtype, bool) else None
+    if name is not None:
+        object.__setattr__(setup, "dtype", name)
+
 
 PSTParams = SnowParams  # the name users know (PST papers, earlier versions)
 
@@ -170,7 +186,8 @@ class SlopeSetup:
         start: crack initiation point (x, y) [m] (x up-slope from the lower edge).
         cfl: Courant number.
         particles_per_cell: particles per cell and dimension.
-        dtype: "float32" or "float64".
+        dtype: "float32" or "float64", as a string or a numpy / JAX dtype (stored as its
+            name).
         chunk_steps: steps per jitted chunk (one snapshot per chunk).
         p0_rule: MCC p0 rule (see `PSTSetup`).
         mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
@@ -192,3 +209,6 @@ class SlopeSetup:
     mcc_invariants: str = "3d"
     slab_fracture: str = "paper"
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        _normalise_dtype(self)

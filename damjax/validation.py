@@ -21,6 +21,7 @@ import jax
 import numpy as np
 
 from damjax import theory
+from damjax._tracing import concrete_tree, is_traced
 from damjax.constants import (
     DTYPES,
     G_ACC,
@@ -449,7 +450,20 @@ def validate(
 ) -> None:
     """Raise ValueError (one line per problem) for invalid input; warn on dubious input
     (`dubious`, as `DubiousInputWarning`; ``warn_dubious=False``: only the resolution
-    warning). ``batch``: batched fields allowed (`damjax.sweep`)."""
+    warning). ``batch``: batched fields allowed (`damjax.sweep`).
+
+    Traced parameters (inside `jax.grad` / `jax.vmap`) are checked through the concrete
+    values JAX holds behind them (a batch under `jax.vmap`); inside `jax.jit` there are
+    none, so only the setup is checked here and the runtime guards of the run remain.
+    """
+    if is_traced(params):
+        concrete = concrete_tree(params)
+        if concrete is None:
+            problems = setup_problems(setup)
+            if problems:
+                raise ValueError("\n".join(problems))
+            return
+        params, batch = concrete, True
     if not batch:
         problems = single_run_problems(params)
         if problems:

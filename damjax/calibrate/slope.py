@@ -42,10 +42,10 @@ import optax
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope, make_slope_layout
 from damjax.core.state import Model, State
-from damjax.diagnostics import smoothstep
 from damjax.materials import mcc, weak_layer
 from damjax.params import PSTParams, SlopeSetup
 from damjax.slope.simulation import SlopeResult
+from damjax.slope.simulation import particle_damage as slope_particle_damage
 from damjax.validation import ensure_x64, slope_problems
 
 CALIBRATED = ("tensile_strength", "softening")
@@ -130,13 +130,9 @@ def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> M
 
 
 def particle_damage(model: Model, state: State, width: float = DAMAGE_WIDTH) -> Any:
-    """Smooth weak-layer damage per particle in [0, 1] (module doc; 1 where sawn)."""
-    finite = jnp.isfinite(model.u_res)
-    u_r = jnp.where(finite, model.u_res, 1.0)
-    z = (state.u_max / u_r - (1.0 - width)) / width
-    damage = jnp.where(finite, smoothstep(z), 0.0)
-    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
-    return jnp.maximum(damage, cut)
+    """Smooth weak-layer damage per particle in [0, 1] (module doc; 1 where sawn);
+    `damjax.slope.simulation.particle_damage`."""
+    return slope_particle_damage(model, state, width)
 
 
 @dataclasses.dataclass(frozen=True)

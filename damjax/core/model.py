@@ -372,6 +372,8 @@ class SlopeLayout:
     n_cells: tuple[int, int]
     n_chunks: int
     chunk_steps: int
+    # the slab law, from the concrete parameters (read by build_slope when they are traced)
+    plastic: bool = True
 
     @property
     def n_steps(self) -> int:
@@ -402,7 +404,8 @@ def make_slope_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float
         np.dtype(setup.dtype).itemsize,
         "length, width, dx, duration and particles_per_cell of the slope",
     )
-    return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, chunk)
+    plastic = is_plastic(params) is not False
+    return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, chunk, plastic)
 
 
 def _bilinear(field: Any, xp: np.ndarray, yp: np.ndarray, dx: float) -> Any:
@@ -469,7 +472,8 @@ def build_slope(
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
     phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
-    plastic = bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
+    plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
+    plastic = layout.plastic if plastic is None else plastic
     model = Model(
         grid_shape=layout.grid_shape,
         dx=float(dx),

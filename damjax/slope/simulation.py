@@ -21,13 +21,16 @@ import dataclasses
 import math
 from typing import Any
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
+from damjax._tracing import concrete_members, is_traced
 from damjax._version import __version__
 from damjax.constants import G_ACC
-from damjax.core.loop import integrate
+from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     SlopeLayout,
     build_slope,
@@ -35,9 +38,9 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State
 from damjax.core.step import column_height, fracture_strain
-from damjax.diagnostics import ARREST_QUIET
+from damjax.diagnostics import ARREST_QUIET, smoothstep
 from damjax.params import PSTParams, SlopeSetup
-from damjax.validation import ensure_x64, slope_problems
+from damjax.validation import ensure_x64, require_x64, slope_problems
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
 SPEED_WINDOW_M = 4.0  # length of the sliding windows of the peak crack speed [m]
@@ -53,7 +56,8 @@ def _snapshot(model: Model, state: State) -> dict[str, Any]:
 
 @dataclasses.dataclass
 class SlopeResult:
-    """Maps on the cell grid (nx, ny) of the release area, and summary numbers."""
+    """Maps on the cell grid (nx, ny) of the release area, and summary numbers; a pytree,
+    so `jax.vmap` of `simulate_slope` returns one batched result."""
 
     x: np.ndarray  # (nx,) cell centres up-slope [m]
     y: np.ndarray  # (ny,) cell centres across [m]
@@ -128,6 +132,25 @@ class SlopeResult:
         return ds
 
 
+jax.tree_util.register_dataclass(
+    SlopeResult,
+    data_fields=[
+        "x",
+        "y",
+        "height",
+        "arrival_time",
+        "tension",
+        "opening",
+        "tau_peak",
+        "slope_deg",
+        "snapshots",
+        "summary",
+        "params",
+    ],
+    meta_fields=["setup"],
+)
+
+
 def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
     """Cells (nx, ny) where the slab fractured: with a particle lattice (the "crack_band"
     slab) where a particle's band opening reached the fracture opening
@@ -198,6 +221,29 @@ def _ratio_or_none(v: float, cs: float) -> float | None:
     return v / cs if math.isfinite(v) else None
 
 
+RELEASE_DAMAGE_WIDTH = 0.5  # relative width w of the smooth damage ramp (see particle_damage)
+
+
+def particle_damage(model: Model, state: State, width: float = RELEASE_DAMAGE_WIDTH) -> Any:
+    """Smooth weak-layer damage per particle in [0, 1]: s((u_max / u_r - (1 - w)) / w), s
+    the C1 smoothstep, 1 where sawn, 0 where the layer is unbreakable. A differentiable
+    stand-in for "released" (the event itself is discrete). The ramp is wide (w = 0.5):
+    after an arrest the particles just ahead of the front sit well below u_r, and a narrow
+    ramp gives them no gradient (measured: exactly 0 at w = 0.1)."""
+    finite = jnp.isfinite(model.u_res)
+    u_r = jnp.where(finite, model.u_res, 1.0)
+    z = (state.u_max / u_r - (1.0 - width)) / width
+    damage = jnp.where(finite, smoothstep(z), 0.0)
+    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
+    return jnp.maximum(damage, cut)
+
+
+def release_area_smooth(model: Model, state: State) -> Any:
+    """Smooth release area [m^2]: the particles' `particle_damage` times their area (a JAX
+    scalar, differentiable; close to ``release_area_m2`` where the ramp is narrow in x)."""
+    return jnp.sum(particle_damage(model, state)) * model.area0
+
+
 def simulate_slope(
     params: PSTParams,
     setup: SlopeSetup | None = None,
@@ -205,6 +251,7 @@ def simulate_slope(
     slope_deg: Any = None,
     tau_peak: Any = None,
     fall_deg: Any = 0.0,
+    layout: SlopeLayout | None = None,
     progress: bool = False,
     state: State | None = None,
     start_chunk: int = 0,
@@ -212,6 +259,16 @@ def simulate_slope(
     callback: Any = None,
 ) -> SlopeResult:
     """Run a slope-scale release.
+
+    Works on concrete inputs (validated, run chunk by chunk with progress, snapshots and
+    every diagnostic) and on traced ones (`params`, `tau_peak`, `slope_deg` inside
+    `jax.grad`, `jax.vmap`, `jax.jit`), like `damjax.simulate_pst`: the layout is made
+    from the concrete values JAX holds behind the tracers (under `jax.grad` and
+    `jax.vmap`), or passed in (``layout=damjax.core.model.make_slope_layout(params,
+    setup, max_slope_deg)``; required inside `jax.jit`). A traced result holds JAX maps
+    and a summary of JAX scalars: ``release_area_smooth_m2`` (differentiable, see
+    `release_area_smooth`), ``release_area_m2`` (event-based), ``saw_radius_m`` and
+    ``fault_code``.
 
     Args:
         params: slab and weak-layer parameters (`slope_deg` and `tau_peak` are used when
@@ -225,17 +282,28 @@ def simulate_slope(
         state, start_chunk, history: resume from a saved state after ``start_chunk``
             chunks, with the per-chunk tip arrays and snapshots recorded before it (as
             `damjax.simulate_pst`).
+        layout: static layout (`damjax.core.model.make_slope_layout`); default: made
+            from the inputs.
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
     setup = SlopeSetup() if setup is None else setup
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
+    inputs = (params, slope_deg, tau_peak, fall_deg)
+    if is_traced(inputs):
+        if progress or state is not None or start_chunk or history or callback is not None:
+            raise TypeError(
+                "simulate_slope: progress, resume (state, start_chunk, history) and callback "
+                "need concrete inputs; inside jax.grad/jit/vmap call it without them"
+            )
+        return _simulate_slope_traced(params, setup, slope_deg, tau_peak, fall_deg, layout)
     problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
     ensure_x64(setup.dtype)
-    layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
+    if layout is None:
+        layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
     model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     final, _, snaps, info = integrate(
         model,
@@ -301,6 +369,7 @@ def simulate_slope(
         "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
         "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
         "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
+        "release_area_smooth_m2": float(release_area_smooth(model, final)),
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
@@ -330,6 +399,91 @@ def simulate_slope(
             np.degrees(np.arcsin(np.clip(np.hypot(*np.asarray(model.g_tangent)) / G_ACC, 0, 1)))
         ),
         snapshots=snapshots,
+        summary=summary,
+        setup=setup,
+        params=params,
+    )
+
+
+# compiled once per model structure and layout: a repeated jax.grad / jax.vmap of a function
+# that calls simulate_slope does not recompile the time loop
+_integrate_pure_jit = eqx.filter_jit(integrate_pure)
+
+
+def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
+    """One layout that fits every member of a batch: the widest padding, the most steps,
+    plastic if any member is."""
+    layouts = [make_slope_layout(m[0], setup, float(np.max(m[1]))) for m in members]
+    pad_x = max(lay.pad[0] for lay in layouts)
+    pad_y = max(lay.pad[1] for lay in layouts)
+    nx, ny = layouts[0].n_cells
+    most = max(layouts, key=lambda lay: lay.n_steps)
+    return dataclasses.replace(
+        most,
+        grid_shape=(pad_x + nx + pad_y, 2 * pad_y + ny),
+        pad=(pad_x, pad_y),
+        plastic=any(lay.plastic for lay in layouts),
+    )
+
+
+def _simulate_slope_traced(
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any,
+    layout: SlopeLayout | None,
+) -> SlopeResult:
+    """`simulate_slope` on traced inputs: the pure run, JAX maps (`SlopeResult`)."""
+    require_x64(setup.dtype)
+    # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
+    members = concrete_members((params, slope_deg, tau_peak, fall_deg))
+    for member in members or ():
+        problems = slope_problems(member[0], setup, *member[1:])
+        if problems:
+            raise ValueError("\n".join(problems))
+    if layout is None:
+        if members is None:
+            raise TypeError(
+                "simulate_slope: the inputs are traced inside jax.jit (or nested jax.vmap), "
+                "where their values (which fix the grid and the step count) are unknown; make "
+                "the layout from concrete values and pass it: layout = "
+                "damjax.core.model.make_slope_layout(params, setup, max_slope_deg); then "
+                "simulate_slope(..., layout=layout)"
+            )
+        layout = _batch_layout(members, setup)
+    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
+    nx, ny = layout.n_cells
+    # each particle's cell from its reference position (host values: model.cell0 may be
+    # traced inside jax.jit)
+    flat = np.floor(xp / setup.dx).astype(int) * ny + np.floor(yp / setup.dx).astype(int)
+    counts = np.maximum(np.bincount(flat, minlength=nx * ny), 1)
+
+    def cm(v: Any, reduce: str = "mean") -> Any:
+        if reduce == "min":
+            out = jax.ops.segment_min(v, flat, nx * ny)
+        else:
+            out = jax.ops.segment_sum(v, flat, nx * ny) / counts
+        return out.reshape(nx, ny)
+
+    g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
+    summary = {
+        "release_area_smooth_m2": release_area_smooth(model, final),
+        "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.area0,
+        "saw_radius_m": final.saw_pos,
+        "fault_code": final.fault,
+    }
+    return SlopeResult(
+        x=(np.arange(nx) + 0.5) * setup.dx,
+        y=(np.arange(ny) + 0.5) * setup.dx,
+        height=cm(column_height(model, final)),
+        arrival_time=cm(final.t_broken, "min"),
+        tension=cm(final.sigma[0]),
+        opening=cm(final.opening),
+        tau_peak=cm(model.tau_peak),
+        slope_deg=cm(jnp.degrees(jnp.arcsin(jnp.clip(g_t / G_ACC, 0.0, 1.0)))),
+        snapshots={},
         summary=summary,
         setup=setup,
         params=params,
