@@ -18,10 +18,13 @@ import dataclasses
 import math
 from typing import Any
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from damjax import diagnostics
+from damjax._tracing import concrete_tree, is_traced
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: public here too)
     SAW_LEAD,
@@ -71,10 +74,18 @@ def _snapshot(model: Model, state: State) -> dict[str, Any]:
 
 @dataclasses.dataclass
 class PSTResult:
-    """Outcome of a PST run (numpy arrays, SI units).
+    """Outcome of a PST run (SI units); a pytree, so `jax.vmap` of `simulate_pst` returns
+    one batched result.
 
-    Event-based diagnostics (crack tip, arrest) are computed on the host from the tip
-    history; they are discrete and not differentiable (see `damjax.diagnostics`).
+    From concrete parameters the fields are numpy arrays and ``summary`` holds every
+    diagnostic. Event-based diagnostics (crack tip, arrest, fractures) are computed on the
+    host from the tip history; they are discrete and not differentiable (see
+    `damjax.diagnostics`). From traced parameters (inside `jax.grad`, `jax.vmap`,
+    `jax.jit`) the fields are JAX arrays per particle (a 2D strip is not width-averaged),
+    ``snapshots`` and ``fractures`` are empty, and ``summary`` holds only JAX scalars:
+    ``arrest_position_smooth_m`` (differentiable), ``saw_position_m``, ``tip_m`` (the
+    crack tip at the end) and ``fault_code`` (0: no runtime fault; bits of
+    `damjax.core.state.FAULT_MESSAGES`).
     """
 
     params: PSTParams
@@ -94,21 +105,54 @@ class PSTResult:
     fault: str | None = None
     fractures: list[dict[str, float]] = dataclasses.field(default_factory=list)
 
+    def _event(self, key: str) -> Any:
+        if key not in self.summary:
+            raise ValueError(
+                f"PSTResult.{key}: event-based diagnostics need concrete parameters (this "
+                "result comes from traced ones, inside jax.grad/jit/vmap); use "
+                "arrest_position_smooth, or run simulate_pst outside the transform"
+            )
+        return self.summary[key]
+
     @property
     def arrested(self) -> bool:
-        return bool(self.summary["arrested"])
+        return bool(self._event("arrested"))
 
     @property
     def arrest_position(self) -> float:
         """Event-based L_ca [m]; NaN when the crack did not arrest (not differentiable)."""
-        v = self.summary["arrest_position_m"]
+        v = self._event("arrest_position_m")
         return math.nan if v is None else float(v)
 
     @property
-    def arrest_position_smooth(self) -> float:
-        """Smooth surrogate of L_ca [m] (`damjax.diagnostics.smooth_arrest_position`);
-        `damjax.arrest_position_smooth` is its differentiable JAX counterpart."""
-        return float(self.summary["arrest_position_smooth_m"])
+    def arrest_position_smooth(self) -> Any:
+        """Smooth surrogate of L_ca [m] (`damjax.diagnostics.smooth_arrest_position`): a
+        float from concrete parameters, a JAX scalar (differentiable) or a batch of them
+        from traced ones (`jax.grad`, `jax.vmap`)."""
+        v = self.summary["arrest_position_smooth_m"]
+        return v if is_traced(v) or np.ndim(v) > 0 else float(v)
+
+
+jax.tree_util.register_dataclass(
+    PSTResult,
+    data_fields=[
+        "params",
+        "x",
+        "time",
+        "tip",
+        "sigma_xx",
+        "height",
+        "slip",
+        "u_max",
+        "tau_peak",
+        "opening",
+        "wl_shear",
+        "snapshots",
+        "summary",
+        "fractures",
+    ],
+    meta_fields=["setup", "fault"],
+)
 
 
 def simulate_pst(
@@ -116,6 +160,7 @@ def simulate_pst(
     setup: PSTSetup | None = None,
     progress: bool = False,
     *,
+    layout: Layout | None = None,
     state: State | None = None,
     start_chunk: int = 0,
     history: tuple[list[np.ndarray], list[Any]] | None = None,
@@ -123,10 +168,27 @@ def simulate_pst(
 ) -> PSTResult:
     """Run a PST and return its diagnostics (see `PSTResult`, `damjax.diagnostics`).
 
+    Works on concrete parameters (validated, run chunk by chunk with progress, snapshots
+    and every diagnostic) and on traced ones, like any JAX function::
+
+        jax.grad(lambda p: damjax.simulate_pst(p, setup).arrest_position_smooth)(params)
+        jax.vmap(lambda th: damjax.simulate_pst(
+            eqx.tree_at(lambda p: p.strength_gradient, params, th), setup))(thetas)
+        jax.jit(lambda p: damjax.simulate_pst(p, setup, layout=layout))(params)
+
+    The static layout (grid, step count, elastic or plastic slab) is made from the
+    concrete values JAX holds behind the tracers under `jax.grad` and `jax.vmap` (the
+    whole batch, as `damjax.sweep` does); inside `jax.jit` there are none, so pass
+    ``layout=damjax.make_layout(params, setup)`` made from concrete parameters (the
+    stiffest and most sliding you will evaluate). Traced runs keep the runtime guards
+    (`equinox.error_if`: a slab too stiff for the layout's time step, a finite tensile
+    strength on an elastic layout).
+
     Args:
         params: physical parameters (default: the paper's elastic baseline).
         setup: numerics (default: 100 m, dx = 0.02 m, 3 s, free lateral condition).
-        progress: show a tqdm progress bar.
+        progress: show a tqdm progress bar (concrete parameters only).
+        layout: static layout (`make_layout`); default: made from the parameters.
         state, start_chunk, history: resume from a saved state after ``start_chunk``
             chunks, with the per-chunk tip arrays and snapshots recorded before it.
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk
@@ -134,9 +196,19 @@ def simulate_pst(
     """
     params = PSTParams() if params is None else params
     setup = PSTSetup() if setup is None else setup
+    if is_traced(params):
+        if progress or state is not None or start_chunk or history or callback is not None:
+            raise TypeError(
+                "simulate_pst: progress, resume (state, start_chunk, history) and callback "
+                "need concrete parameters; inside jax.grad/jit/vmap call it without them"
+            )
+        return _simulate_traced(params, setup, layout)
     validate(params, setup)
     ensure_x64(setup.dtype)
-    layout = make_layout(params, setup)
+    if layout is None:
+        layout = make_layout(params, setup)
+    else:
+        check_layout(params, setup, layout)
     model, state0 = build(params, setup, layout)
     final, tips, snaps, info = integrate(
         model,
@@ -241,6 +313,50 @@ def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     )
 
 
+def _simulate_traced(params: PSTParams, setup: PSTSetup, layout: Layout | None) -> PSTResult:
+    """`simulate_pst` on traced parameters: the pure run (`run_pure`), JAX fields."""
+    require_x64(setup.dtype)
+    if layout is None:
+        concrete = concrete_tree(params)
+        if concrete is None:
+            raise TypeError(
+                "simulate_pst: the parameters are traced inside jax.jit, where their values "
+                "(which fix the grid and the step count) are unknown; make the layout from "
+                "concrete parameters and pass it: layout = damjax.make_layout(params, "
+                "setup); jax.jit(lambda p: damjax.simulate_pst(p, setup, layout=layout))"
+            )
+        validate(concrete, setup, batch=True)
+        layout = make_layout(concrete, setup)
+    else:
+        validate(params, setup, batch=True)  # through the tracers' values where known
+        check_layout(params, setup, layout)
+    model, final, tips = run_pure(params, setup, layout)
+    summary = {
+        "arrest_position_smooth_m": diagnostics_smooth(model, final),
+        "saw_position_m": final.saw_pos,
+        "tip_m": final.tip,
+        "fault_code": final.fault,
+    }
+    return PSTResult(
+        params=params,
+        setup=setup,
+        x=model.saw_coord,
+        time=model.dt * jnp.arange(1, layout.n_steps + 1, dtype=model.saw_coord.dtype),
+        tip=tips,
+        sigma_xx=final.sigma[0],
+        height=column_height(model, final),
+        slip=final.u[0],
+        u_max=final.u_max,
+        tau_peak=model.tau_peak,
+        opening=final.opening,
+        wl_shear=weak_layer_shear(model, final),
+        snapshots={},
+        summary=summary,
+        fault=None,
+        fractures=[],
+    )
+
+
 def _width_average(x: np.ndarray, *fields: np.ndarray) -> tuple[np.ndarray, ...]:
     xs, inv = np.unique(np.round(x, 9), return_inverse=True)
     out = [xs]
@@ -253,7 +369,14 @@ def run_pure(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model,
     """Traceable full run (for grad / vmap): model, final state and tip per step.
 
     Reverse mode is checkpointed per segment and per step (`damjax.core.loop.integrate_pure`).
+    Compiled once per setup, layout and set of traced fields (`equinox.filter_jit`), so a
+    repeated `jax.grad` or `jax.vmap` of a function that calls it does not recompile.
     """
+    return _run_pure_jit(params, setup, layout)
+
+
+@eqx.filter_jit
+def _run_pure_jit(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State, Any]:
     model, state = build(params, setup, layout)
     final, tips = integrate_pure(model, state, layout.n_chunks, layout.chunk_steps)
     return model, final, tips
