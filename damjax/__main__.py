@@ -1,5 +1,3 @@
-import sys
+from damjax.cli import entry
 
-from damjax.cli import main
-
-sys.exit(main())
+entry()

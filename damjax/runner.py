@@ -48,7 +48,7 @@ SLOPE_PLOT = "slope.png"  # slope scenarios: maps (h, crown, stauchwall, arrival
 SLOPE_ANIMATION = "release.gif"  # slope scenarios: animation of the release
 SLOPE_OUTPUTS = (SLOPE_PLOT, SLOPE_ANIMATION)
 CHECKPOINT_FORMAT = "damjax-checkpoint/1"
-TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s")
+TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s", "phases_s")
 
 
 @dataclasses.dataclass
@@ -205,10 +205,13 @@ def run(
         return _run_slope(scn, out, rec, progress, None)
     from damjax.pst import make_layout
 
+    t0 = _time.perf_counter()
     n_chunks = make_layout(scn.params, scn.setup).n_chunks
     rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
+    t1 = _time.perf_counter()
     result = _simulate(scn, rec, progress)
-    return _finish(scn, out, result, rec, None)
+    phases = {"layout_s": t1 - t0, "simulate_s": _time.perf_counter() - t1}
+    return _finish(scn, out, result, rec, None, phases)
 
 
 def resume(
@@ -293,10 +296,19 @@ def _simulate(scn: Scenario, rec: _Recorder, progress: bool, **resume: Any) -> A
 
 
 def _finish(
-    scn: Scenario, out: Path, result: Any, rec: _Recorder, resumed_from: int | None
+    scn: Scenario,
+    out: Path,
+    result: Any,
+    rec: _Recorder,
+    resumed_from: int | None,
+    phases: dict[str, float] | None = None,
 ) -> RunOutcome:
+    """Write a PST's outputs; ``phases``: wall-clock seconds of the run's phases so far
+    (recorded in the summary as ``phases_s``, with those of writing the outputs)."""
     from damjax import diagnostics
 
+    phases = dict(phases or {})
+    t0 = _time.perf_counter()
     summary = dict(result.summary)
     stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
     attrs = {
@@ -319,16 +331,20 @@ def _finish(
     if rec.last is not None:
         files["final_state"] = out / FINAL_STATE
         io.write_npz(files["final_state"], rec.last.state)
+    t1 = _time.perf_counter()
+    phases["results_file_s"] = t1 - t0
     if scn.output.plot:
         from damjax.plot import plot_pst
 
         files["plot"] = out / PLOT
         io.save_figure(plot_pst(result), files["plot"])
+        phases["figure_s"] = _time.perf_counter() - t1
     files["summary"] = out / SUMMARY
     full = {
         "scenario": scn.name,
         "damjax_version": _version(),
         **summary,
+        "phases_s": {k: round(v, 4) for k, v in phases.items()},
         "resumed_from_chunk": resumed_from,
         "out_dir": str(out),
     }

@@ -14,7 +14,6 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from damjax import pst
 from damjax.core.loop import cpu_compiler_options
@@ -100,6 +99,8 @@ def invert(
         return jnp.sum(((predict(x) - obs) / noise_std) ** 2)
 
     vg = jax.jit(jax.value_and_grad(loss), compiler_options=cpu_compiler_options())
+    import optax  # deferred: importing damjax stays light
+
     opt = optax.adam(learning_rate)
     x, st = x0, opt.init(x0)
     hist = []

@@ -20,7 +20,6 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from damjax import theory
 
@@ -88,6 +87,8 @@ def fit_power_law(
 
     def loss(theta: Any) -> Any:
         return jnp.mean((theta[0] + theta[1] * (lx - mx) - ly) ** 2)
+
+    import optax  # deferred: importing damjax stays light
 
     opt = optax.adam(learning_rate)
     theta = jnp.asarray([jnp.mean(ly), 1.0], lx.dtype)

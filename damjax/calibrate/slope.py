@@ -37,7 +37,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope, make_slope_layout
@@ -302,6 +301,8 @@ def calibrate_slope(
     fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
     vg = loss_and_grad(problem, observed, grid, fields)
+    import optax  # deferred: importing damjax stays light
+
     sched = optax.scale_by_schedule(lambda k: 1.0 / jnp.sqrt(1.0 + k / 5.0))
     opt = optax.chain(optax.adam(learning_rate), sched)
     st = opt.init(x)

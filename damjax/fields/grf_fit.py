@@ -9,8 +9,8 @@ from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
+import jax.scipy.linalg  # cho_solve (no longer imported on the way by optax)
 import numpy as np
-import optax
 from jax import Array
 from jax.typing import ArrayLike
 
@@ -298,6 +298,8 @@ def _ml_search(
 
     def objective(theta):
         return _profile_nll(theta, data, model, n_len)
+
+    import optax  # deferred: importing damjax stays light
 
     opt = optax.lbfgs()
     value_and_grad = optax.value_and_grad_from_state(objective)
