@@ -140,6 +140,19 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
     """
     import jax.numpy as jnp
 
+    area = failed_area(model, state, width)
+    if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
+        length = jnp.max(model.saw_coord) + jnp.min(model.saw_coord)
+        area = area / (model.saw_coord.size * model.area0 / length)
+    return area
+
+
+def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
+    """Failed (or sawn) weak-layer area [m^2; m in 1D] (JAX): each particle's area times
+    the failed fraction of its segment (`smooth_arrest_position`); the continuous
+    counterpart of the event-based released area (particles with u_max >= u_r)."""
+    import jax.numpy as jnp
+
     from damjax.core.step import front_width
     from damjax.materials import weak_layer
 
@@ -153,11 +166,7 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
         damage = jnp.where(finite, smoothstep(z), 0.0)
     cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
     damage = jnp.maximum(damage, cut)
-    area = jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
-    if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
-        length = jnp.max(model.saw_coord) + jnp.min(model.saw_coord)
-        area = area / (model.saw_coord.size * model.area0 / length)
-    return area
+    return jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
 
 
 def _none(v: float) -> float | None:

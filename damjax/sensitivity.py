@@ -21,6 +21,7 @@ the window as L_ca flattens with theta.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -36,65 +37,96 @@ from damjax.validation import ensure_x64, validate
 def gradient_check(
     params: PSTParams,
     setup: PSTSetup,
-    field: str,
+    field: str | Sequence[str],
     *,
     rel_window: float = 0.1,
     n_runs: int = 11,
     tolerance: float = 0.1,
     batch_size: int | None = None,
-) -> GradientCheck:
+) -> GradientCheck | list[GradientCheck]:
     """AD of the continuous crack length [m] with respect to ``field`` over the window
     field x (1 - rel_window .. 1 + rel_window) (``n_runs`` runs, centred on ``params``)
     against the least-squares slope of the event-based arrest over the same runs.
 
+    Several fields (a sequence) run as one batch: one compiled sweep and one compiled
+    gradient for all their windows; the result is then a list, in the order given.
+
     Args:
-        params: the case (concrete values); ``field`` must be a finite, nonzero scalar.
-        setup: numerics; the window and the gradient share one layout (the time step of
+        params: the case (concrete values); each field must be a finite, nonzero scalar.
+        setup: numerics; the windows and the gradients share one layout (the time step of
             the stiffest member).
-        field: a scalar field of `PSTParams`, e.g. "strength_gradient".
+        field: a scalar field of `PSTParams`, e.g. "strength_gradient", or a sequence.
         rel_window: half-width of the window relative to the value, in (0, 0.5].
-        n_runs: runs in the window, odd, in [3, 1001].
+        n_runs: runs in each window, odd, in [3, 1001].
         tolerance: relative error accepted for the verdict, > 0.
-        batch_size: run the window's forward runs and gradients in slices of this many
-            members (`jax.lax.map`; default: all at once), bounding memory: a gradient
-            holds about twice a forward run's memory per member.
+        batch_size: run the forward runs and gradients in slices of this many members
+            (`jax.lax.map`; default: all at once), bounding memory: a gradient holds
+            about twice a forward run's memory per member.
     """
+    fields = [field] if isinstance(field, str) else list(field)
     names = [f.name for f in dataclasses.fields(PSTParams)]
-    if field not in names or field in PROFILE_FIELDS:
-        raise ValueError(f"field = {field!r}: must be a scalar field of PSTParams ({names})")
+    problems = [
+        f"field = {f!r}: must be a scalar field of PSTParams ({names})"
+        for f in fields
+        if f not in names or f in PROFILE_FIELDS
+    ]
+    if not fields:
+        problems.append("field: empty; name at least one PSTParams field")
     if not 0.0 < rel_window <= 0.5:
-        raise ValueError(f"rel_window = {rel_window!r}: must be in (0, 0.5]")
+        problems.append(f"rel_window = {rel_window!r}: must be in (0, 0.5]")
     if (
         isinstance(n_runs, bool)
         or not isinstance(n_runs, int)
         or not 3 <= n_runs <= 1001
         or n_runs % 2 == 0
     ):
-        raise ValueError(f"n_runs = {n_runs!r}: must be an odd integer in [3, 1001]")
+        problems.append(f"n_runs = {n_runs!r}: must be an odd integer in [3, 1001]")
     if not tolerance > 0.0:
-        raise ValueError(f"tolerance = {tolerance!r}: must be in (0, inf)")
-    x0 = getattr(params, field)
-    if np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
-        raise ValueError(f"{field} = {x0!r}: the check needs a finite, nonzero scalar value")
+        problems.append(f"tolerance = {tolerance!r}: must be in (0, inf)")
+    for f in fields:
+        if not problems:
+            x0 = getattr(params, f)
+            if np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
+                problems.append(f"{f} = {x0!r}: the check needs a finite, nonzero scalar value")
+    if problems:
+        raise ValueError("\n".join(problems))
     validate(params, setup)
     ensure_x64(setup.dtype)
-    x0 = float(x0)
-    xs = np.linspace(x0 * (1 - rel_window), x0 * (1 + rel_window), n_runs)
     dtype = jnp.float64 if setup.dtype == "float64" else jnp.float32
-    batch = dataclasses.replace(params, **{field: jnp.asarray(xs, dtype)})
+    x0 = np.array([float(getattr(params, f)) for f in fields])
+    windows = [np.linspace(x * (1 - rel_window), x * (1 + rel_window), n_runs) for x in x0]
+    # member (j, i): field j at its i-th window value, every other field at params
+    points = np.repeat(x0[None, :], len(fields) * n_runs, axis=0)
+    for j, xs in enumerate(windows):
+        points[j * n_runs : (j + 1) * n_runs, j] = xs
+    pts = jnp.asarray(points, dtype)
+    batch = dataclasses.replace(params, **{f: pts[:, j] for j, f in enumerate(fields)})
     results = sweep(batch, setup, batch_size=batch_size)
-    arrests = [
-        np.nan if r.summary["arrest_position_m"] is None else r.summary["arrest_position_m"]
-        for r in results
-    ]
-    layout = pst.make_layout(batch, setup)  # the window's time step: stable for all
+    arrests = np.array(
+        [
+            np.nan if r.summary["arrest_position_m"] is None else r.summary["arrest_position_m"]
+            for r in results
+        ]
+    )
+    layout = pst.make_layout(batch, setup)  # the windows' time step: stable for all
 
     def length(v: jax.Array) -> jax.Array:
-        return pst.arrest_position_smooth(dataclasses.replace(params, **{field: v}), setup, layout)
+        values = {f: v[j] for j, f in enumerate(fields)}
+        return pst.arrest_position_smooth(dataclasses.replace(params, **values), setup, layout)
 
     grad = jax.grad(length)
-    ads = jax.jit(lambda v: jax.lax.map(grad, v, batch_size=batch_size))(jnp.asarray(xs, dtype))
-    return compare_gradient(field, xs, np.asarray(ads, float), arrests, tolerance)
+    ads = np.asarray(jax.jit(lambda v: jax.lax.map(grad, v, batch_size=batch_size))(pts), float)
+    checks = [
+        compare_gradient(
+            f,
+            windows[j],
+            ads[j * n_runs : (j + 1) * n_runs, j],
+            arrests[j * n_runs : (j + 1) * n_runs],
+            tolerance,
+        )
+        for j, f in enumerate(fields)
+    ]
+    return checks[0] if isinstance(field, str) else checks
 
 
 __all__ = ["gradient_check"]

@@ -213,14 +213,31 @@ def test_checkpoint_schemes_give_the_same_gradient(tensile_strength):
 
 
 def test_float32_gradient_of_the_plastic_slab_matches_float64():
-    """The default scheme's single-precision gradients on an MCC slab, against float64."""
+    """The default scheme's single-precision gradients on an MCC slab, against float64.
+
+    The crack length is piecewise smooth: its derivative changes where a weak-layer
+    segment enters or leaves its partly failed range, which happens densely in the
+    parameters (measured in float64: d L / d delta is -0.6940, -0.6964, -0.6923, -0.6929,
+    -0.6890 at delta = 1 - 1e-4, 1 - 3e-5, 1, 1 + 3e-5, 1 + 1e-4). Float32 rounding moves
+    the run by about that much, so its gradient must be the float64 gradient of a nearby
+    run: inside the range of the float64 gradients over delta x (1 +- 1e-4), within 0.5 %.
+    """
     params = dataclasses.replace(PARAMS, tensile_strength=4500.0)
     v32, g32 = _checkpointed_value_and_grad(params, SETUP, "steps")
+    names = ["strength_gradient", "softening", "youngs_modulus", "tensile_strength"]
+    g64s = []
     with jax.enable_x64(True):
-        v64, g64 = _checkpointed_value_and_grad(
-            params, dataclasses.replace(SETUP, dtype="float64"), "steps"
-        )
+        for rel in (-1e-4, -3e-5, 0.0, 3e-5, 1e-4):
+            p = dataclasses.replace(params, softening=params.softening * (1.0 + rel))
+            v, g = _checkpointed_value_and_grad(
+                p, dataclasses.replace(SETUP, dtype="float64"), "steps"
+            )
+            g64s.append(g)
+            if rel == 0.0:
+                v64 = v
     assert float(v32) == pytest.approx(float(v64), abs=1e-3)
-    for name in ["strength_gradient", "softening", "youngs_modulus", "tensile_strength"]:
-        a, b = float(getattr(g32, name)), float(getattr(g64, name))
-        assert a == pytest.approx(b, rel=5e-3), (name, a, b)
+    for name in names:
+        a = float(getattr(g32, name))
+        b = [float(getattr(g, name)) for g in g64s]
+        tol = 5e-3 * max(abs(x) for x in b)
+        assert min(b) - tol <= a <= max(b) + tol, (name, a, b)

@@ -11,16 +11,22 @@ the ground, acting on the slab's slope-parallel displacement u relative to the g
   tau_r = rho g h cos(psi) tan(phi) opposing sliding. Friction is applied on the grid as
   an impulse cap (a slab at rest stays at rest), see `damjax.core.step`.
 
-Failure is event-accurate in time. Losing cohesion at u_r is a jump of the traction (at
-delta = 0 the whole drop from tau_p to friction). Applied from the step after the slip
-crossed u_r, the state after the event would be a step function of the parameters: move
-theta a little and the layer fails at the same step with the same impulse, until it
-suddenly fails one step earlier, so reverse mode would miss the shift of every event and
-with it almost all of the crack's sensitivity at delta = 0. `intact_fraction` locates the
-crossing inside the step from the slip and its rate (the time-of-impact treatment of
-differentiable contact, as in DiffTaichi), and the step applies cohesion for that fraction
-of the step and friction for the rest. The impulse then moves continuously with the
-crossing time, and so does the state after each failure.
+Failure without events. Losing cohesion at u_r is a jump of the traction (at delta = 0
+the whole drop from tau_p to friction). Applied to a whole particle from the step after
+its slip crossed u_r, the state after the event would be a step function of the
+parameters: move theta a little and the layer fails at the same step with the same
+impulse, until it suddenly fails one step earlier, so reverse mode would miss the shift
+of every event and with it almost all of the crack's sensitivity at delta = 0. Instead
+each particle stands for a segment of weak layer one particle spacing long, across which
+the slip near a crack front varies by `front_width` (u_r x spacing / Lambda); the segment
+fails progressively (`failed_fraction`) as its centre slip passes u_r, and
+`failed_fraction_in_step` averages that fraction exactly over each step for a linear slip
+path (the time-of-impact treatment of differentiable contact, as in DiffTaichi, applied
+to the part of the step after the crossing). Cohesion acts on the intact part, friction
+on the failed part, so the impulse and the state after each failure move continuously
+with the parameters. The crack length that results (`damjax.diagnostics`) is continuous
+and piecewise smooth in every parameter, with kinks where a segment enters or leaves its
+partly failed range.
 
 Functions here are per-particle, elementwise, and safe for infinite tau_p (controlled
 runs, unbreakable layers) and delta = 0: no NaN in values or gradients.
