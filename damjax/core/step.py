@@ -133,7 +133,7 @@ def crack_band_opening(model: Model) -> Any:
     )
 
 
-def band_opening(model: Model, opening: Any) -> Any:
+def band_opening(model: Model, opening: Any, spread: bool = True) -> Any:
     """Opening w [m] of the tensile band through each particle, rows (n,).
 
     With a particle lattice (`Model.lattice`), the plastic opening strain times the
@@ -150,15 +150,43 @@ def band_opening(model: Model, opening: Any) -> Any:
     o = opening * model.lattice_spacing
     # the sum over the window centred on each particle, then its largest value over the
     # window: every particle of a band sees the band's whole opening, also near its edges
+    # (``spread`` False: the window sum only, the opening of the band centred there)
+
+    def along(a: Any, axis: int) -> Any:
+        w = _window(a, k, jnp.add, 0.0, axis)
+        return _window(w, k, jnp.maximum, -jnp.inf, axis) if spread else w
+
     if model.dim == 1:
-        w = jax.lax.reduce_window(o, 0.0, jax.lax.add, (2 * k + 1,), (1,), [(k, k)])
-        return jax.lax.reduce_window(w, -jnp.inf, jax.lax.max, (2 * k + 1,), (1,), [(k, k)])
+        return along(o, 0)
     grid = jnp.reshape(o, model.lattice)
-    along = []
-    for win, pad in (((2 * k + 1, 1), [(k, k), (0, 0)]), ((1, 2 * k + 1), [(0, 0), (k, k)])):
-        w = jax.lax.reduce_window(grid, 0.0, jax.lax.add, win, (1, 1), pad)
-        along.append(jax.lax.reduce_window(w, -jnp.inf, jax.lax.max, win, (1, 1), pad))
-    return jnp.reshape(jnp.minimum(along[0], along[1]), o.shape)
+    return jnp.reshape(jnp.minimum(along(grid, 0), along(grid, 1)), o.shape)
+
+
+def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
+    """op (add or maximum) of ``a`` over [i - k, i + k] along ``axis``, padded with
+    ``pad_value``: blocks of 1, 2, 4, ... elements made by doubling and combined along the
+    binary digits of 2 k + 1 (2 log2(2 k + 1) elementwise ops; XLA:CPU's reduce_window
+    takes 2 k + 1 per element: with it a 100 m PST step at dx 0.02 took 1.19 / 1.72 x the
+    step without a lattice for the paper / crack_band slab, with this 1.01 / 1.16 x)."""
+    n = a.shape[axis]
+    pad = [(0, 0)] * a.ndim
+    pad[axis] = (k, k)
+    m = jnp.pad(a, pad, constant_values=pad_value)
+    out, offset, span, rest = None, 0, 1, 2 * k + 1
+    while True:
+        if rest & 1:  # the block of `span` elements at `offset`
+            block = jax.lax.slice_in_dim(m, offset, offset + n, axis=axis)
+            out = block if out is None else op(out, block)
+            offset += span
+        rest >>= 1
+        if not rest:
+            return out
+        size = m.shape[axis]
+        m = op(
+            jax.lax.slice_in_dim(m, 0, size - span, axis=axis),
+            jax.lax.slice_in_dim(m, span, size, axis=axis),
+        )
+        span *= 2
 
 
 def fracture_opening(model: Model) -> Any:
@@ -303,8 +331,11 @@ def step(model: Model, state: State) -> State:
     )
     opening = state.opening + d_open
     if model.plastic:  # an elastic slab never fractures
+        # a band reaches the fracture opening when the largest window sum in it does: the
+        # window sum alone (`band_opening` without its max) marks the band's first time
         t_fracture = jnp.where(
-            jnp.isinf(state.t_fracture) & (band_opening(model, opening) >= fracture_opening(model)),
+            jnp.isinf(state.t_fracture)
+            & (band_opening(model, opening, spread=False) >= fracture_opening(model)),
             state.time + dt,
             state.t_fracture,
         )
