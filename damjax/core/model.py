@@ -452,11 +452,12 @@ def build_slope(
     n = xp.size
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
-    plastic_slab = is_plastic(params) is not False  # traced: plastic (elastic: no lattice)
+    plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
+    plastic = layout.plastic if plastic is None else plastic
     tensile, g_f, slab_kw = _slab_fracture(
         params,
         setup,
-        plastic_slab,
+        plastic,
         (nx * ppc, ny * ppc),
         xp,
         yp,
@@ -472,8 +473,6 @@ def build_slope(
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
     phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
-    plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
-    plastic = layout.plastic if plastic is None else plastic
     model = Model(
         grid_shape=layout.grid_shape,
         dx=float(dx),
