@@ -72,11 +72,16 @@ def cohesive_factor(
     return jnp.where(broken, 0.0, k)
 
 
+RAMP_EPS = 1e-6  # [-] ramp intervals shorter than this are taken as points
+
+
 def _mean_ramp(a: Any, d: Any) -> Any:
     """Mean of clip(z, 0, 1) over z in [a, a + d], d >= 0, without cancellation: the
     parts of the interval below 0, inside [0, 1] and above 1 are measured separately
     (a difference of antiderivatives loses all digits in float32 when d << 1)."""
-    pos = d > 0.0
+    # below 1e-6 the mean is clip(a) to 1e-6; the cut keeps 1 / d^2 in reverse mode finite
+    # (d^2 underflows in float32 for d < 1e-19 and turned the gradient into NaN)
+    pos = d > RAMP_EPS
     d_s = jnp.where(pos, d, 1.0)
     below = jnp.clip(-a, 0.0, d_s)
     above = jnp.clip((a - 1.0) + d_s, 0.0, d_s)
@@ -121,9 +126,13 @@ def failed_fraction_in_step(
     finite = jnp.isfinite(u_break)
     u_b = jnp.where(finite, u_break, 1.0)
     rise = jnp.maximum(slip_rate, 0.0) * dt  # slip gained over the step
-    past = jnp.maximum(slip + rise - u_max, 0.0)  # by how much it passes the history
+    # a rise below RAMP_EPS x width changes the failed fraction by less than RAMP_EPS:
+    # treated as none, which keeps 1 / rise^2 in reverse mode finite (see _mean_ramp)
+    moving = rise > RAMP_EPS * width
+    rise_s = jnp.where(moving, rise, 1.0)
+    past = jnp.where(moving, jnp.maximum(slip + rise - u_max, 0.0), 0.0)  # past the history
     # part of the step before the slip passes the history: failed fraction of u_max
-    t_pass = jnp.where(past > 0.0, 1.0 - past / jnp.where(rise > 0.0, rise, 1.0), 1.0)
+    t_pass = jnp.where(past > 0.0, 1.0 - past / rise_s, 1.0)
     t_pass = jnp.clip(t_pass, 0.0, 1.0)  # u_max lags the slip by round-off at most
     z_m = (u_max - u_b) / width + 0.5
     avg = t_pass * jnp.clip(z_m, 0.0, 1.0) + (1.0 - t_pass) * _mean_ramp(z_m, past / width)
