@@ -36,8 +36,8 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     build_slope,
     make_slope_layout,
 )
-from damjax.core.state import FAULT_MESSAGES, Model, State
-from damjax.core.step import column_height, fracture_strain
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State
+from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
 from damjax.diagnostics import ARREST_QUIET, smoothstep
 from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import ensure_x64, require_x64, slope_problems
@@ -159,6 +159,25 @@ def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
     if model.lattice:
         return cm(np.isfinite(np.asarray(final.t_fracture)).astype(float)) > 0.0
     return cm(final.opening) >= float(np.min(np.asarray(fracture_strain(model))))
+
+
+def _crown_and_stauchwall(
+    model: Any, final: Any, height: np.ndarray, h0: float, cm: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """Crown and stauchwall cells (nx, ny). With a particle lattice (the "crack_band"
+    slab) from band openings, fixed in metres: the crown where the tensile band opening
+    reached the fracture opening (`damjax.core.step.fracture_opening`), the stauchwall
+    where the compressive band closure (the volumetric plastic compaction times the
+    particle spacing, summed across the band as `damjax.core.step.band_opening` does)
+    reached `FRACTURE_OPENING` (1 mm). Without one: the column height changed by more
+    than 2 % (thresholds on h, which depend on dx)."""
+    if not model.lattice:
+        return height < 0.98 * h0, height > 1.02 * h0
+    w = band_opening(model, final.opening)
+    crown = np.asarray(w >= fracture_opening(model), float)
+    closure = band_opening(model, jnp.maximum(-(final.eps_p[0] + final.eps_p[1]), 0.0))
+    stauch = np.asarray(closure >= FRACTURE_OPENING, float)
+    return cm(crown) > 0.0, cm(stauch) > 0.0
 
 
 def _cell_map(
@@ -340,6 +359,7 @@ def simulate_slope(
     )
     height = cm(column_height(model, final))
     h0 = float(params.thickness)
+    crown, stauch = _crown_and_stauchwall(model, final, height, h0, cm)
     fault = None
     if int(final.fault):
         fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
@@ -366,8 +386,8 @@ def simulate_slope(
         "upslope_crack_speed_mean_over_cs": _ratio_or_none(v_up, cs),
         "crossslope_crack_speed_mean_over_cs": _ratio_or_none(v_cross, cs),
         "release_area_m2": float(broken.sum() * float(model.area0)),
-        "crown_area_m2": float(np.sum(height < 0.98 * h0) * setup.dx**2),
-        "stauchwall_area_m2": float(np.sum(height > 1.02 * h0) * setup.dx**2),
+        "crown_area_m2": float(np.sum(crown) * setup.dx**2),
+        "stauchwall_area_m2": float(np.sum(stauch) * setup.dx**2),
         "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
         "release_area_smooth_m2": float(release_area_smooth(model, final)),
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
