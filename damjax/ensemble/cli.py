@@ -38,7 +38,8 @@ def add_arguments(p: Any) -> None:
         type=int,
         default=None,
         metavar="K",
-        help="members per vmapped slice (default: from the measured memory)",
+        help="members per slice (default: on CPU one per device; otherwise the most that "
+        "fit half the free memory, measured on the compiled step, at most 8 per device)",
     )
     p.add_argument("--no-plot", action="store_true", help="do not write ensemble.png")
     p.add_argument(
