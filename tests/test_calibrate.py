@@ -51,6 +51,7 @@ def test_inversion_recovers_a_known_strength_gradient():
         ({"fields": ["strength_gradiant"]}, "not a PSTParams field"),
         ({"fields": ["softening"], "params0": PSTParams(softening=0.0)}, "params0.softening"),
         ({"observations": []}, "observations: empty"),
+        ({"observations": [({}, float("nan"))]}, r"observations\[0\]: L_observed = nan"),
     ]:
         args = {"observations": [({}, observed)], "params0": start, "fields": ["tau_peak"]}
         args.update(kw)

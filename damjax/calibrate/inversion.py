@@ -74,6 +74,12 @@ def invert(
         problems.append("fields: empty; name at least one PSTParams field to fit")
     if not observations:
         problems.append("observations: empty; give at least one (overrides, L_observed) pair")
+    for i, (_, observed) in enumerate(observations):
+        if not (np.ndim(observed) == 0 and math.isfinite(float(observed))):
+            problems.append(
+                f"observations[{i}]: L_observed = {observed!r}: must be a finite arrest "
+                "position [m] (a run that did not arrest has none: NaN)"
+            )
     if problems:
         raise ValueError("\n".join(problems))
     layout = pst.make_layout(params0, setup)
