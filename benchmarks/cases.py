@@ -315,6 +315,7 @@ def _gradient_rows(case_name: str, params, setup, fields, batch_size=None) -> No
             ad_mean=c.ad_mean,
             ad_center=c.ad,
             event_slope=c.event_slope,
+            length_slope=c.length_slope,
             relative_error=round(c.relative_error, 4),
             ok=c.ok,
             arrests_m=list(c.arrests),

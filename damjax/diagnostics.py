@@ -259,6 +259,10 @@ class GradientCheck:
         values: the field values of the window.
         arrests: event-based L_ca at each value [m] (nan: no arrest).
         ad_values: d L_smooth / d field at each value [m per field unit].
+        lengths: L_smooth at each value [m] (nan where not given).
+        length_slope: least-squares slope of L_smooth over the window (nan where not
+            given) [m per field unit]: equal to ``event_slope`` when the continuous
+            length has the event-based trend.
         relative_error: |ad_mean - event_slope| / |event_slope| [-].
         tolerance: the relative error accepted [-].
         ok: the verdict, relative_error <= tolerance.
@@ -272,6 +276,8 @@ class GradientCheck:
     values: tuple[float, ...]
     arrests: tuple[float, ...]
     ad_values: tuple[float, ...]
+    lengths: tuple[float, ...]
+    length_slope: float
     relative_error: float
     tolerance: float
     ok: bool
@@ -282,7 +288,8 @@ class GradientCheck:
             f"d L / d {self.field} over [{self.values[0]:.6g}, {self.values[-1]:.6g}] "
             f"({len(self.values)} runs): AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
             f"{self.ad:.5g}) vs event-based slope {self.event_slope:.5g}: {verdict} within "
-            f"{self.tolerance:.0%} (error {self.relative_error:.1%})"
+            f"{self.tolerance:.0%} (error {self.relative_error:.1%}); slope of the "
+            f"continuous length {self.length_slope:.5g}"
         )
 
 
@@ -292,6 +299,7 @@ def compare_gradient(
     ad_values: Any,
     arrests: Any,
     tolerance: float = 0.1,
+    lengths: Any = None,
 ) -> GradientCheck:
     """Verdict on AD derivatives [m per field unit] at a window of parameter ``values``
     (equally spaced, odd count: the centre is the middle one) against the least-squares
@@ -306,6 +314,10 @@ def compare_gradient(
             "at least 3 are needed (a longer duration or PST, or a narrower window)"
         )
     slope = float(np.polyfit(values[ok], arrests[ok], 1)[0])
+    lengths = np.full(values.shape, np.nan) if lengths is None else np.asarray(lengths, float)
+    length_slope = (
+        float(np.polyfit(values, lengths, 1)[0]) if np.all(np.isfinite(lengths)) else math.nan
+    )
     ad_mean = float(np.mean(ad_values))
     err = abs(ad_mean - slope) / max(abs(slope), 1e-300)
     mid = values.size // 2
@@ -318,6 +330,8 @@ def compare_gradient(
         values=tuple(float(v) for v in values),
         arrests=tuple(float(a) for a in arrests),
         ad_values=tuple(float(a) for a in ad_values),
+        lengths=tuple(float(v) for v in lengths),
+        length_slope=length_slope,
         relative_error=float(err),
         tolerance=float(tolerance),
         ok=bool(err <= tolerance),

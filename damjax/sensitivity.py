@@ -108,6 +108,7 @@ def gradient_check(
             for r in results
         ]
     )
+    lengths = np.array([r.summary["arrest_position_smooth_m"] for r in results])
     layout = pst.make_layout(batch, setup)  # the windows' time step: stable for all
 
     def length(v: jax.Array) -> jax.Array:
@@ -123,6 +124,7 @@ def gradient_check(
             ads[j * n_runs : (j + 1) * n_runs, j],
             arrests[j * n_runs : (j + 1) * n_runs],
             tolerance,
+            lengths[j * n_runs : (j + 1) * n_runs],
         )
         for j, f in enumerate(fields)
     ]
