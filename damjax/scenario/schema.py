@@ -6,6 +6,11 @@ valid range (``params.poisson = 0.7: must be in (0, 0.5)``); `load` and `parse` 
 one `ValueError` carrying all of them, the CLI prints them and exits with status 2.
 Physically dubious but valid choices raise a `ScenarioWarning` instead.
 
+One module (~620 lines, half of it this format description and the key tables) on
+purpose: the keys common to every scenario type, their checks and messages live together,
+and the type-specific parts register themselves from `damjax.scenario.pst` and
+`damjax.scenario.slope`.
+
 Format (SI units throughout; angles in degrees)::
 
     type = "pst"                  # required: "pst", or "slope" (format: damjax.scenario.slope)
