@@ -6,7 +6,7 @@ valid range (``params.poisson = 0.7: must be in (0, 0.5)``); `load` and `parse` 
 one `ValueError` carrying all of them, the CLI prints them and exits with status 2.
 Physically dubious but valid choices raise a `ScenarioWarning` instead.
 
-One module (~620 lines, half of it this format description and the key tables) on
+One module (~620 lines, a sixth of them this format description) on
 purpose: the keys common to every scenario type, their checks and messages live together,
 and the type-specific parts register themselves from `damjax.scenario.pst` and
 `damjax.scenario.slope`.
