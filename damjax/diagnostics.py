@@ -36,8 +36,11 @@ Measured (40 m PST, L_ss 10 m, theta 800 Pa/m, dx 0.04 m, 1 s, float64, 2026-11-
 d L / d theta by AD against the least-squares slope of the event-based L_ca over theta
 720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01718 m/(Pa/m)
 averaged over the window (-0.01646 at theta 800) against -0.01723 (the event-based
-failure of earlier versions gave -0.00073). `python -m benchmarks gradient_events`
-measures the other fields and softening 0.3.
+failure of earlier versions gave -0.00073). On the paper's brittle baseline (100 m,
+dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m benchmarks
+gradient_full`): AD -0.2567 averaged over the window (-0.2327 at theta 500) against -0.2472
+(earlier versions: -0.0012). `python -m benchmarks gradient_events` measures the other
+fields and softening 0.3.
 
 When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no segment is partly
