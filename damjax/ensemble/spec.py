@@ -18,7 +18,7 @@ import numpy as np
 
 from damjax.params import SnowParams
 from damjax.scenario import parse, resolve
-from damjax.scenario.schema import _fmt
+from damjax.scenario.schema import _fmt, unknown_keys
 from damjax.scenario.slope import PST_ONLY_PARAMS
 from damjax.validation import param_problems
 
@@ -210,16 +210,11 @@ def check_table(table: Any, scn: Any, problems: list[str]) -> dict[str, Any]:
         problems.append(f"ensemble = {_fmt(table)}: must be a table ([ensemble])")
         return {}
     out: dict[str, Any] = {}
+    unknown_keys(table, ENSEMBLE_KEYS, "ensemble", problems)
     for key, value in table.items():
         if key not in ENSEMBLE_KEYS:
-            hit = difflib.get_close_matches(key, ENSEMBLE_KEYS, n=1)
-            more = (
-                f" (did you mean 'ensemble.{hit[0]}'?)"
-                if hit
-                else f" (valid: {', '.join(ENSEMBLE_KEYS)})"
-            )
-            problems.append(f"ensemble.{key}: unknown key{more}")
-        elif key in ("members", "slice_size"):
+            continue
+        if key in ("members", "slice_size"):
             if not _is_int(value, 1):
                 problems.append(f"ensemble.{key} = {_fmt(value)}: must be an integer >= 1")
             else:

@@ -6,7 +6,6 @@ of `damjax.validation` (the format: `damjax.scenario.schema`).
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import warnings
 from pathlib import Path
@@ -26,6 +25,7 @@ from damjax.scenario.schema import (
     _fmt,
     _retarget,
     register,
+    unknown_keys,
 )
 from damjax.validation import dubious, param_problems, setup_problems, validate
 
@@ -96,15 +96,7 @@ def _profile_values(
         problems.append(f"profile = {_fmt(table)}: must be a table ([profile])")
         return pvals, []
     n0 = len(problems)
-    for key in table:
-        if key not in PROFILE_KEYS:
-            hit = difflib.get_close_matches(key, PROFILE_KEYS, n=1)
-            more = (
-                f" (did you mean 'profile.{hit[0]}'?)"
-                if hit
-                else f" (valid: {', '.join(PROFILE_KEYS)})"
-            )
-            problems.append(f"profile.{key}: unknown key{more}")
+    unknown_keys(table, PROFILE_KEYS, "profile", problems)
     file = table.get("file")
     if "file" not in table:
         problems.append("profile.file: missing (a CAAML 6 .xml/.caaml or SNOWPACK .pro file)")
@@ -179,15 +171,7 @@ def _strength_profile(
         problems.append(f"strength = {_fmt(table)}: must be a table ([strength])")
         return None, []
     n0 = len(problems)
-    for key in table:
-        if key not in STRENGTH_KEYS:
-            hit = difflib.get_close_matches(key, STRENGTH_KEYS, n=1)
-            more = (
-                f" (did you mean 'strength.{hit[0]}'?)"
-                if hit
-                else f" (valid: {', '.join(STRENGTH_KEYS)})"
-            )
-            problems.append(f"strength.{key}: unknown key{more}")
+    unknown_keys(table, STRENGTH_KEYS, "strength", problems)
     if has_profile:
         problems.append("strength: give either [strength] or params.strength_profile, not both")
     file = table.get("file")

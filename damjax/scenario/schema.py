@@ -336,6 +336,17 @@ def _fmt(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def unknown_keys(table: dict[str, Any], valid: Any, name: str, problems: list[str]) -> None:
+    """One problem per key of the TOML table ``[name]`` that is not in ``valid``, with the
+    closest valid key or the list of them."""
+    valid = list(valid)
+    for key in table:
+        if key not in valid:
+            hit = difflib.get_close_matches(key, valid, n=1)
+            more = f" (did you mean '{name}.{hit[0]}'?)" if hit else f" (valid: {', '.join(valid)})"
+            problems.append(f"{name}.{key}: unknown key{more}")
+
+
 def _suggest(section: str | None, key: str) -> str:
     """' (did you mean 'setup.dx'?)' for a misplaced or misspelled key, else ''."""
     known = _known_keys()
