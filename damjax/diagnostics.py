@@ -45,12 +45,13 @@ fields and softening 0.3.
 When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no segment is partly
 failed, and the gradient is zero although the arrest moves (20 m PST, L_ss 8 m, theta
-300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m: d L / d sigma_t = 0 by AD against 0.99 m/kPa
-by central differences). There a damage ramp over the softening branch keeps the
-sensitivity: ``width`` = w_r switches to L = sum_p s((u_max,p / u_r,p - (1 - w_r)) / w_r)
-Delta x_p with s the C1 smoothstep; w_r = 0.5 (= delta / (1 + delta) at delta = 1, the
-whole softening branch) gave 0.89 m/kPa and -1.64 m for d/d delta by AD against 0.98 m/kPa
-and -1.79 m by differences, for a length 0.14 m above the event-based L_ca.
+300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m, 1.5 s, float64, 2026-11-25: d L / d sigma_t =
+0 by AD against 0.92 m/kPa by central differences over +-2 %). There a damage ramp over
+the softening branch keeps the sensitivity: ``width`` = w_r switches to
+L = sum_p s((u_max,p / u_r,p - (1 - w_r)) / w_r) Delta x_p with s the C1 smoothstep;
+w_r = 0.5 (= delta / (1 + delta) at delta = 1, the whole softening branch) gives
+0.89 m/kPa by AD against 0.98 m/kPa by differences, for a length 0.14 m above the
+continuous one.
 """
 
 from __future__ import annotations
