@@ -135,7 +135,10 @@ def test_sweep_equals_a_loop_of_simulate_pst():
 def test_sweep_sharded_over_four_host_devices_equals_unsharded():
     code = textwrap.dedent("""
         import os, json
-        os.environ["XLA_FLAGS"] = "--xla_force_host_platform_device_count=4"
+        # four devices on a CI machine with two busy cores: an all-reduce may wait for a
+        # device's thread for longer than XLA's default 40 s before it aborts the process
+        os.environ["XLA_FLAGS"] = ("--xla_force_host_platform_device_count=4 "
+                                   "--xla_cpu_collective_call_terminate_timeout_seconds=600")
         import jax, jax.numpy as jnp, damjax
         from damjax import PSTParams, PSTSetup
         assert len(jax.devices()) == 4
