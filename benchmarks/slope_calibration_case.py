@@ -48,7 +48,7 @@ optimiser, and is what the crack-band softening removes: the truth run (sigma_t 
 releases 85.8 m^2 on dx 0.25 m (1 particle per cell), 77.7 m^2 on
 0.125 m (1 per cell), 75.6 m^2 on 0.125 m (2 x 2 per cell) and 65.9 m^2 on 0.0625 m (2 x 2):
 about 10 m^2 less per halving of dx, with no sign of convergence. The slab's tensile failure
-is perfectly plastic (MCC, no softening length; see the issue-3 note on the theta-30 fracture
+is perfectly plastic (MCC, no softening length; see docs/model/slab.md on the theta-30 fracture
 count): the opening localises in one cell, so a finer grid fracture is cheaper and stops the
 crack earlier, and a calibration on a coarser grid absorbs the difference into sigma_t. The
 same calibration against a reference of the *same* grid spacing (`--fine-dx 0.125`, 2 x 2
