@@ -18,24 +18,34 @@ What is differentiated instead is `smooth_arrest_position`, the event-based crac
 made continuous. Each particle stands for a segment of weak layer of length Delta x_p
 (the particle spacing), and the weak-layer law lets that segment fail progressively as
 the crack front crosses it (`damjax.materials.weak_layer.failed_fraction`: its failed
-fraction phi_p goes from 0 to 1 while the maximum slip goes from u_r - w/2 to u_r + w/2,
-w = u_r Delta x_p / Lambda). The continuous crack length is
+fraction goes from 0 to 1 while the maximum slip goes from u_r - w/2 to u_r + w/2,
+w = u_r Delta x_p / Lambda). The mechanics uses that fraction (cohesion on the intact
+part, friction on the rest, averaged over each step), so the state after each failure is
+continuous in the parameters and reverse mode carries the shift of every failure, also at
+delta = 0. The continuous crack length counts each segment by a C1 ramp of its maximum
+slip centred on the same u_r but `LENGTH_RAMP` front widths wide:
 
-    L_smooth = sum_p  max(phi_p, c_p)  Delta x_p     [m]
+    L_smooth = sum_p  max(r((u_max,p - u_r,p) / (LENGTH_RAMP w_p)), c_p)  Delta x_p   [m]
 
-with c_p the sawn fraction of the segment. For a crack that runs from the sawn end, as in
-a PST, it is the position of the crack front within the segment it is crossing. The
-event-based tip is the centre of the furthest segment at least half failed
-(u_max >= u_r), so the two differ by less than half a particle spacing while at most
-one segment is partly failed, and are equal when that segment is exactly half failed.
-The mechanics uses the same phi_p (cohesion on the intact part, friction on the rest,
-averaged over each step), so the state after each failure is continuous in the
-parameters and reverse mode carries the shift of every failure, also at delta = 0.
+with r(z) = 2 (z + 1/2)^2 below z = 0 and 1 - 2 (1/2 - z)^2 above (0 below -1/2, 1 above
+1/2) and c_p the sawn fraction of the segment. The ramp is odd about u_r (r(z) + r(-z) =
+1), so where the maximum slip falls linearly across the last few segments the sum is the
+position of the point where it equals u_r: the event-based tip (the centre of the furthest
+segment with u_max >= u_r) made continuous; they differ by at most one particle spacing
+(measured on 40 m PSTs at softening 0 and 0.3, 2026-11-25), and equal when u_r is reached
+exactly at a particle. Why wider than the mechanics' ramp: near the tip the maximum slip
+of neighbouring segments differs by about w at softening 0 but less when the weak layer
+softens (about w / 1.15 at delta = 0.3), so one or two segments were partly failed in
+turn and the derivative of the sum alternated by a factor up to 2 from one parameter
+value to the next (0.05 Pa/m apart in theta); spread over about four segments with a
+C1 ramp, whose derivative is a hat, the overlapping hats add up to a nearly constant
+derivative: the spread of d L / d theta over theta 800-804 Pa/m (81 runs) falls from
+25 % to 1.5 % at delta = 0.3, and from 3.1 % to 1.9 % at delta = 0.
 
 Measured (40 m PST, L_ss 10 m, theta 800 Pa/m, dx 0.04 m, 1 s, float64, 2026-11-25;
 d L / d theta by AD against the least-squares slope of the event-based L_ca over theta
-720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01718 m/(Pa/m)
-averaged over the window (-0.01646 at theta 800) against -0.01723 (the event-based
+720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01716 m/(Pa/m)
+averaged over the window (-0.01647 at theta 800) against -0.01723 (the event-based
 failure of earlier versions gave -0.00073). On the paper's brittle baseline (100 m,
 dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m benchmarks
 gradient_full`): AD -0.2567 averaged over the window (-0.2327 at theta 500) against -0.2472
@@ -43,11 +53,12 @@ gradient_full`): AD -0.2567 averaged over the window (-0.2327 at theta 500) agai
 fields and softening 0.3.
 
 When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
-from above u_r to about 0.84 u_r between neighbouring particles, no segment is partly
-failed, and the gradient is zero although the arrest moves (20 m PST, L_ss 8 m, theta
-300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m, 1.5 s, float64, 2026-11-25: d L / d sigma_t =
-0 by AD against 0.92 m/kPa by central differences over +-2 %). There a damage ramp over
-the softening branch keeps the sensitivity: ``width`` = w_r switches to
+from above u_r to about 0.84 u_r between neighbouring particles, no segment lies on
+the ramp (u_r +- 2 front widths), and the gradient is zero although the arrest moves
+(20 m PST, L_ss 8 m, theta 300 Pa/m, sigma_t 6 kPa, delta 1, dx 0.04 m, 1.5 s,
+float64, 2026-11-25: d L / d sigma_t = 0 by AD against 0.92 m/kPa by central
+differences over +-2 %). There a damage ramp over the softening branch keeps the
+sensitivity: ``width`` = w_r switches to
 L = sum_p s((u_max,p / u_r,p - (1 - w_r)) / w_r) Delta x_p with s the C1 smoothstep;
 w_r = 0.5 (= delta / (1 + delta) at delta = 1, the whole softening branch) gives
 0.89 m/kPa by AD against 0.98 m/kPa by differences, for a length 0.14 m above the
@@ -133,6 +144,18 @@ def smoothstep(z: Any) -> Any:
     return z * z * (3.0 - 2.0 * z)
 
 
+LENGTH_RAMP = 4.0  # [front widths] width of the ramp that counts a segment in L_smooth
+
+
+def c1_ramp(z: Any) -> Any:
+    """C1 ramp odd about 0: 0 for z <= -1/2, 2 (z + 1/2)^2 up to 0, 1 - 2 (1/2 - z)^2 up
+    to 1/2, 1 above; its derivative is a hat of unit area."""
+    import jax.numpy as jnp
+
+    t = jnp.clip(z + 0.5, 0.0, 1.0)
+    return jnp.where(t < 0.5, 2.0 * t * t, 1.0 - 2.0 * (1.0 - t) * (1.0 - t))
+
+
 def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -> Any:
     """Continuous crack length [m] (JAX): the event-based crack tip made continuous.
 
@@ -153,21 +176,21 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
 
 def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
     """Failed (or sawn) weak-layer area [m^2; m in 1D] (JAX): each particle's area times
-    the failed fraction of its segment (`smooth_arrest_position`); the continuous
-    counterpart of the event-based released area (particles with u_max >= u_r)."""
+    the ramp of its segment's maximum slip about u_r (`smooth_arrest_position`); the
+    continuous counterpart of the event-based released area (particles with u_max >=
+    u_r)."""
     import jax.numpy as jnp
 
     from damjax.core.step import front_width
-    from damjax.materials import weak_layer
 
     spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
     finite = jnp.isfinite(model.u_res)
+    u_r = jnp.where(finite, model.u_res, 1.0)
     if width is None:
-        damage = weak_layer.failed_fraction(state.u_max, model.u_res, front_width(model))
+        ramp = c1_ramp((state.u_max - u_r) / (LENGTH_RAMP * front_width(model)))
     else:
-        u_r = jnp.where(finite, model.u_res, 1.0)
-        z = (state.u_max / u_r - (1.0 - width)) / width
-        damage = jnp.where(finite, smoothstep(z), 0.0)
+        ramp = smoothstep((state.u_max / u_r - (1.0 - width)) / width)
+    damage = jnp.where(finite, ramp, 0.0)
     cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
     damage = jnp.maximum(damage, cut)
     return jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]

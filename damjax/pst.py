@@ -407,8 +407,8 @@ def arrest_position_smooth(
     parameters, so pass it whenever the parameters are traced (`jax.grad`, `jax.jit`,
     `jax.vmap`); without it traced parameters are an error that says so.
     It is the event-based crack tip made continuous (each particle's segment of weak
-    layer counts with its failed fraction; see `damjax.diagnostics`), and it stays
-    within half a particle spacing of the event-based tip while the front is sharp.
+    layer counts by a C1 ramp of its maximum slip about the failure slip; see
+    `damjax.diagnostics`), within one particle spacing of the event-based tip.
     ``width``: optional relative width of a damage ramp over u_max / u_r that replaces
     the failed fraction (0.5 where slab fractures stop the crack; see
     `damjax.diagnostics.smooth_arrest_position`).

@@ -13,9 +13,9 @@ The window runs as one vmapped `damjax.sweep` and one vmapped gradient (about fo
 forward runs per member). The verdict compares the window mean of the AD derivative with
 the slope (`damjax.diagnostics.GradientCheck` says why); the derivative at the centre is
 reported too. Measured on a 40 m PST (L_ss 10 m, theta 800 Pa/m, dx 0.04 m, softening 0,
-float64, theta 720-880 Pa/m, 2026-11-25): AD mean -0.01718, at the centre -0.01646,
-event-based slope -0.01723 m/(Pa/m); the derivative runs from -0.0207 to -0.0115 across
-the window as L_ca flattens with theta.
+float64, theta 720-880 Pa/m, 2026-11-25): AD mean -0.01716, at the centre -0.01647,
+event-based slope -0.01723 m/(Pa/m); the derivative runs from about -0.021 to -0.012
+across the window as L_ca flattens with theta.
 """
 
 from __future__ import annotations

@@ -23,17 +23,14 @@ FIELDS = ("strength_gradient", "youngs_modulus", "wl_shear_modulus", "tau_peak")
 
 @pytest.mark.parametrize("softening", [0.0, 0.3])
 def test_ad_follows_the_event_based_arrest_over_a_window(softening):
-    """theta, E, G_wl, tau_p +-10 %, 11 runs each (one batch).
+    """theta, E, G_wl, tau_p +-10 %, 11 runs each (one batch), within the verdict's 10 %.
 
-    The continuous crack length has the event-based arrest's trend (least-squares slopes
-    within 1 % measured on 2026-11-25 in float32, checked at 3 %). Its AD derivative is
-    exact (tests/test_differentiability.py) but not uniform: once per particle spacing of
-    arrest movement it is about 3 x steeper over a narrow range of the parameter (the
-    next segment's failure feeding on itself), which 11 samples hit or miss by chance;
-    their mean was within 1.2-11.5 % of the event-based slope (tau_p at softening 0 the
-    largest), so the verdict's 10 % is checked at 15 % here."""
+    Measured on 2026-11-25 in float32 (|AD window mean / event-based slope - 1|):
+    softening 0: 1.9, 1.0, 0.5, 3.8 %; softening 0.3: 3.2, 2.0, 0.2, 0.4 %. The continuous
+    crack length's own least-squares slope matched the event-based one within 0.8 %
+    (checked at 3 %)."""
     params = PSTParams(steady_length=5.0, strength_gradient=600.0, softening=softening)
-    checks = damjax.gradient_check(params, SETUP, FIELDS, tolerance=0.15)
+    checks = damjax.gradient_check(params, SETUP, FIELDS, tolerance=0.10)
     for c in checks:
         assert all(np.isfinite(c.arrests)), str(c)
         assert c.ok, str(c)
