@@ -171,6 +171,19 @@ def test_member_draws_are_per_member_and_follow_their_distributions(tiny):
     assert abs(v.mean() / 4000.0 - 1) < 2e-3 and abs(v.std() / 800.0 - 1) < 2e-2
 
 
+def test_crack_band_members_draw_their_own_slab_strength_field(tiny):
+    import dataclasses
+
+    scn = ensemble.load(tiny).scenario
+    paper = ensemble.from_scenario(scn, {}, members=3)
+    assert {ensemble.member_scenario(paper, i).setup.seed for i in range(3)} == {scn.setup.seed}
+    setup = dataclasses.replace(scn.setup, slab_fracture="crack_band")
+    band = dataclasses.replace(scn, setup=setup)
+    ens = ensemble.from_scenario(band, {}, members=3)
+    seeds = [ensemble.member_scenario(ens, i).setup.seed for i in range(3)]
+    assert seeds == [scn.setup.seed + i for i in range(3)]
+
+
 # --------------------------------------------------------------------------- runs
 
 

@@ -34,6 +34,9 @@ Scenario files take an optional ``[ensemble]`` table (SI units, as the rest)::
     low = 15.0                   #   constant: tau_peak, trend)
     high = 25.0
 
+With the "crack_band" slab (``slab_fracture`` in [setup]) each member also draws its own
+tensile-strength field: member i uses ``setup.seed + i``.
+
 How it runs. Members run as vmapped batches of the shared 2D step (`damjax.core.loop.
 run_chunk`, the step `simulate_slope` integrates), in slices of ``slice_size`` members,
 each slice sharded over the process's devices (one member group per device,

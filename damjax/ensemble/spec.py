@@ -327,15 +327,19 @@ def member_draws(ens: Ensemble, i: int) -> tuple[dict[str, float], dict[str, flo
 
 def member_scenario(ens: Ensemble, i: int) -> Any:
     """The scenario of member i (its seed and draws), runnable on its own with
-    `damjax.scenario.slope_fields.simulate`."""
+    `damjax.scenario.slope_fields.simulate`. With the "crack_band" slab the member's
+    tensile-strength field is drawn too: its seed is ``setup.seed + i``."""
     scn = ens.scenario
     pdraw, sdraw = member_draws(ens, i)
     strength = dict(scn.strength or {"kind": "constant"})
     if strength["kind"] == "grf":
         strength["seed"] = member_seed(ens, i)
     strength.update(sdraw)
+    setup = scn.setup
+    if setup.slab_fracture == "crack_band":
+        setup = dataclasses.replace(setup, seed=setup.seed + i)
     return dataclasses.replace(
-        scn, params=dataclasses.replace(scn.params, **pdraw), strength=strength
+        scn, params=dataclasses.replace(scn.params, **pdraw), strength=strength, setup=setup
     )
 
 
