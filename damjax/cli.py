@@ -398,6 +398,21 @@ def cmd_scenarios(ns: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_ensemble(path: Any, given: str) -> None:
+    """A scenario with an [ensemble] table is many runs: say which command runs it."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, ValueError):
+        return  # scenario.load reports unreadable files
+    if isinstance(data, dict) and "ensemble" in data:
+        raise ValueError(
+            f"{path.name}: has an [ensemble] table, so it describes many runs: run it with "
+            f"`damjax ensemble {given}`, or remove the table to run the scenario once"
+        )
+
+
 def cmd_run(ns: argparse.Namespace) -> int:
     import time
     from pathlib import Path
@@ -407,6 +422,7 @@ def cmd_run(ns: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     with _WarningPrinter():
         path = scenario.resolve(ns.scenario)
+        _refuse_ensemble(path, ns.scenario)
         try:
             scn = scenario.load(path)
         except ValueError as exc:

@@ -130,6 +130,11 @@ def test_run_by_shipped_name_and_bad_arguments(tmp_path, capsys):
     assert main(["run", "quick", "--checkpoint-every", "-1"]) == 2
     err = capsys.readouterr().err
     assert "--checkpoint-every" in err and len(err.strip().splitlines()) == 1
+    ens = tmp_path / "ens.toml"  # an ensemble scenario: one line naming the command to use
+    ens.write_text('type = "slope"\nname = "e"\n[ensemble]\nmembers = 3\n')
+    assert main(["run", str(ens), "--out", str(tmp_path / "e")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "damjax ensemble" in err[0] and "[ensemble]" in err[0]
 
 
 # --------------------------------------------------------------------------- restart
