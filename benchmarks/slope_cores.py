@@ -3,13 +3,14 @@ gains little over running them one after another (``ensemble16``).
 
     python -m benchmarks.slope_cores [--duration 2.0]
 
-The Fig. 12a slope (50 m x 60 m, dx 0.2 m, seed 0) runs in fresh processes:
+The Fig. 12a slope (50 m x 60 m, dx 0.2 m, one particle per cell as in ``ensemble16``,
+seed 0) runs in fresh processes:
 
 - ``slope_cores``: on every core of this process's affinity, and pinned to one core
   (``os.sched_setaffinity`` before JAX starts). ``speedup`` = one-core time / all-core
   time: how much of the host one run already uses. An ensemble can only beat sequential
   runs by the part a single run leaves idle, or by a smaller cost per member;
-- ``slope_width``: the same slope 60, 15 and 3.75 m wide (75 000, 18 750 and 4 500
+- ``slope_width``: the same slope 60, 15 and 4 m wide (75 000, 18 750 and 5 000
   particles) on all cores: the time per step against the particle count, whose intercept
   is the fixed cost per step that batching members would share.
 
@@ -30,7 +31,7 @@ def _one(width: float, duration: float, cores: int | None) -> dict:
         os.sched_setaffinity(0, set(sorted(os.sched_getaffinity(0))[:cores]))
     from damjax.slope.generic import GenericSlopeCase, run_generic_slope
 
-    case = GenericSlopeCase(width=width, duration=duration)
+    case = GenericSlopeCase(width=width, duration=duration, particles_per_cell=1)
     s = run_generic_slope(case).summary
     return dict(
         width_m=width,
@@ -62,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     row = dict(case="slope_cores", all_cores=every, one_core=one)
     row["speedup"] = round(one["wall_time_s"] / every["wall_time_s"], 3)
     print(json.dumps(row), flush=True)
-    rows = [every] + [_run(w, ns.duration, None) for w in (15.0, 3.75)]
+    rows = [every] + [_run(w, ns.duration, None) for w in (15.0, 4.0)]
     n = [r["n_particles"] for r in rows]
     t = [r["ms_per_step"] for r in rows]
     # least squares t = a + b n: a is the fixed cost of a step [ms]
