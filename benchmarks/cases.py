@@ -353,13 +353,14 @@ def gradient_full() -> None:
 @case
 def inversion_brittle() -> None:
     """Gradient inversion through the solver at softening 0: theta from event-based
-    arrests observed on a twice finer grid with noise (20 m PST, dx 0.05 m model)."""
+    arrests observed on a twice finer grid with noise (30 m PST, dx 0.05 m model; long
+    enough that the crack arrests inside it from both starts, theta 400 and 900 Pa/m)."""
     import dataclasses
 
     from damjax import PSTParams, PSTSetup, calibrate, simulate_pst
 
     truth = PSTParams(steady_length=5.0, strength_gradient=600.0, softening=0.0)
-    model_setup = PSTSetup(length=20.0, dx=0.05, duration=0.8)
+    model_setup = PSTSetup(length=30.0, dx=0.05, duration=1.2)
     obs_setup = dataclasses.replace(model_setup, dx=0.025)
     rng = np.random.default_rng(0)
     noise = 0.1  # [m]
