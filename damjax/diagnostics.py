@@ -280,14 +280,15 @@ class GradientCheck:
         field: the `PSTParams` field differentiated.
         at: its value at the centre of the window [field units].
         ad: d L_smooth / d field by reverse mode at the centre [m per field unit].
-        ad_mean: mean of d L_smooth / d field over the window's values [m per field unit].
-        event_slope: least-squares slope of the event-based L_ca over the window
-            [m per field unit].
+        ad_mean: mean of d L_smooth / d field over the window's values where the crack
+            arrested (those the event-based slope is fitted to) [m per field unit].
+        event_slope: least-squares slope of the event-based L_ca over the window's runs
+            that arrested [m per field unit].
         values: the field values of the window.
         arrests: event-based L_ca at each value [m] (nan: no arrest).
         ad_values: d L_smooth / d field at each value [m per field unit].
         lengths: L_smooth at each value [m] (nan where not given).
-        length_slope: least-squares slope of L_smooth over the window (nan where not
+        length_slope: least-squares slope of L_smooth over the same runs (nan where not
             given) [m per field unit]: equal to ``event_slope`` when the continuous
             length has the event-based trend.
         relative_error: |ad_mean - event_slope| / |event_slope| [-].
@@ -311,9 +312,13 @@ class GradientCheck:
 
     def __str__(self) -> str:
         verdict = "agrees" if self.ok else "DISAGREES"
+        n_ok = sum(math.isfinite(a) for a in self.arrests)
+        runs = f"{len(self.values)} runs" + (
+            f", {n_ok} arrested" if n_ok < len(self.values) else ""
+        )
         return (
             f"d L / d {self.field} over [{self.values[0]:.6g}, {self.values[-1]:.6g}] "
-            f"({len(self.values)} runs): AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
+            f"({runs}): AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
             f"{self.ad:.5g}) vs event-based slope {self.event_slope:.5g}: {verdict} within "
             f"{self.tolerance:.0%} (error {self.relative_error:.1%}); slope of the "
             f"continuous length {self.length_slope:.5g}"
@@ -343,9 +348,13 @@ def compare_gradient(
     slope = float(np.polyfit(values[ok], arrests[ok], 1)[0])
     lengths = np.full(values.shape, np.nan) if lengths is None else np.asarray(lengths, float)
     length_slope = (
-        float(np.polyfit(values, lengths, 1)[0]) if np.all(np.isfinite(lengths)) else math.nan
+        float(np.polyfit(values[ok], lengths[ok], 1)[0])
+        if np.all(np.isfinite(lengths[ok]))
+        else math.nan
     )
-    ad_mean = float(np.mean(ad_values))
+    # the same runs on both sides: where some runs did not arrest (the crack stopped at
+    # the saw, or ran through), the event-based slope covers only the others
+    ad_mean = float(np.mean(ad_values[ok]))
     err = abs(ad_mean - slope) / max(abs(slope), 1e-300)
     mid = values.size // 2
     return GradientCheck(

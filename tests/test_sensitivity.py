@@ -53,6 +53,19 @@ def test_gradient_check_rejects_bad_input():
         compare_gradient("tau_peak", [1.0, 2.0, 3.0], [0.1, 0.1, 0.1], [1.0, np.nan, np.nan])
 
 
+def test_verdict_compares_the_same_runs_when_some_did_not_arrest():
+    # the crack stops at the saw in the first two runs: the event-based slope covers the
+    # last three, and so must the AD mean and the continuous length's slope
+    values = [1.0, 2.0, 3.0, 4.0, 5.0]
+    lengths = [0.5, 0.5, 3.0, 4.0, 5.0]
+    c = compare_gradient(
+        "x", values, [0.0, 0.0, 1.0, 1.0, 1.0], [np.nan, np.nan, 3, 4, 5], 0.1, lengths
+    )
+    assert c.event_slope == pytest.approx(1.0) and c.ad_mean == pytest.approx(1.0)
+    assert c.length_slope == pytest.approx(1.0) and c.ok
+    assert "5 runs, 3 arrested" in str(c)
+
+
 def test_slope_failed_area_gradient_follows_the_event_based_release():
     """The 2D step: a 12 m x 1 m plane slope (35 deg) whose strength rises up-slope,
     tau_p = s (1000 + 1100 Pa/m x (x - 3 m)); d(failed area)/ds by AD, averaged over
