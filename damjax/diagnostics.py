@@ -174,25 +174,34 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
     return area
 
 
-def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
-    """Failed (or sawn) weak-layer area [m^2; m in 1D] (JAX): each particle's area times
-    the ramp of its segment's maximum slip about u_r (`smooth_arrest_position`); the
-    continuous counterpart of the event-based released area (particles with u_max >=
-    u_r)."""
+def weak_layer_damage(model: Any, state: Any, width: float | None = None) -> Any:
+    """Per-particle weak-layer damage in [0, 1] from the maximum slip (JAX; 0 where the
+    layer is unbreakable, sawing not included): the C1 ramp `LENGTH_RAMP` front widths
+    wide about u_r (`smooth_arrest_position`), or with ``width`` [-] the smoothstep over
+    u_max / u_r in [1 - width, 1]."""
     import jax.numpy as jnp
 
     from damjax.core.step import front_width
 
-    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
     finite = jnp.isfinite(model.u_res)
     u_r = jnp.where(finite, model.u_res, 1.0)
     if width is None:
         ramp = c1_ramp((state.u_max - u_r) / (LENGTH_RAMP * front_width(model)))
     else:
         ramp = smoothstep((state.u_max / u_r - (1.0 - width)) / width)
-    damage = jnp.where(finite, ramp, 0.0)
+    return jnp.where(finite, ramp, 0.0)
+
+
+def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
+    """Failed (or sawn) weak-layer area [m^2; m in 1D] (JAX): each particle's area times
+    the ramp of its segment's maximum slip about u_r (`smooth_arrest_position`,
+    `weak_layer_damage`); the continuous counterpart of the event-based released area
+    (particles with u_max >= u_r)."""
+    import jax.numpy as jnp
+
+    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
     cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
-    damage = jnp.maximum(damage, cut)
+    damage = jnp.maximum(weak_layer_damage(model, state, width), cut)
     return jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
 
 

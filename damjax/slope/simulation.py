@@ -38,7 +38,7 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
 )
 from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State
 from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
-from damjax.diagnostics import ARREST_QUIET, smoothstep
+from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
 from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import ensure_x64, require_x64, slope_problems
 
@@ -249,12 +249,8 @@ def particle_damage(model: Model, state: State, width: float = RELEASE_DAMAGE_WI
     stand-in for "released" (the event itself is discrete). The ramp is wide (w = 0.5):
     after an arrest the particles just ahead of the front sit well below u_r, and a narrow
     ramp gives them no gradient (measured: exactly 0 at w = 0.1)."""
-    finite = jnp.isfinite(model.u_res)
-    u_r = jnp.where(finite, model.u_res, 1.0)
-    z = (state.u_max / u_r - (1.0 - width)) / width
-    damage = jnp.where(finite, smoothstep(z), 0.0)
     cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
-    return jnp.maximum(damage, cut)
+    return jnp.maximum(weak_layer_damage(model, state, width), cut)
 
 
 def release_area_smooth(model: Model, state: State) -> Any:
