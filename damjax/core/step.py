@@ -38,6 +38,11 @@ from damjax.core.state import (
 )
 from damjax.materials import mcc, slab, weak_layer
 
+# A particle counts as opened (its strength follows its band's opening) once its own
+# opening exceeds this fraction of w_c: elastic steps leave round-off openings (1e-29 m
+# per step measured in float32 under jit), which must not soften an intact particle.
+OPENED = 1e-3
+
 
 def stress_tensor(sigma: Any, dim: int) -> list[list[Any]]:
     """In-plane stress tensor as dim x dim nested lists of (n,) rows, from (xx, yy, xy)."""
@@ -102,9 +107,34 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
         sig_tr = E * (eps[0] - eps_p[0])
         if model.plastic:
             p0 = _p0(model, state)
-            sxx, dxx, dyy = mcc.return_map_uniaxial(
-                sig_tr, p0, model.mcc_m, model.mcc_beta, E, model.mcc_invariants
-            )
+            if model.crack_band and model.lattice:
+                # the band's other particles open in the step too: one Jacobi pass
+                # takes their openings from a first solve that ignores them
+                w_c = crack_band_opening(model)
+                rate = model.lattice_spacing / w_c
+                p0_band = _p0(model, state, gated=False)
+
+                def solve(other: Any) -> tuple[Any, Any, Any]:
+                    return mcc.return_map_uniaxial_softening(
+                        sig_tr,
+                        p0,
+                        p0_band,
+                        rate,
+                        other,
+                        model.mcc_m,
+                        model.mcc_beta,
+                        E,
+                        model.mcc_invariants,
+                    )
+
+                first = solve(jnp.zeros_like(sig_tr))[1]
+                first = jnp.maximum(first, 0.0)
+                others = band_opening(model, first) / w_c - rate * first
+                sxx, dxx, dyy = solve(jnp.maximum(others, 0.0))
+            else:
+                sxx, dxx, dyy = mcc.return_map_uniaxial(
+                    sig_tr, p0, model.mcc_m, model.mcc_beta, E, model.mcc_invariants
+                )
             eps_p = (eps_p[0] + dxx, eps_p[1] + dyy, eps_p[2])
             d_open = jnp.maximum(dxx, 0.0)
         else:
@@ -214,17 +244,23 @@ def fracture_strain(model: Model) -> Any:
     return fracture_opening(model) / model.dx
 
 
-def _p0(model: Model, state: State) -> Any:
+def _p0(model: Model, state: State, gated: bool = True) -> Any:
     """Current consolidation pressure, explicit in the previous step's plastic strains:
     SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
     the band's opening (G_f): `band_opening` for the "crack_band" slab, the opening
-    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f."""
+    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f.
+
+    ``gated`` False: the crack-band strength of every particle as if it had opened (the
+    strength a particle of the band takes on once it yields; `constitutive`)."""
     bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
     w_c = crack_band_opening(model)
     if model.crack_band and model.lattice:
-        # only particles that opened themselves soften: the window's sum must not weaken an
-        # intact neighbour, which would then yield too and spread the band over a plateau
-        w = jnp.where(state.opening > 0.0, band_opening(model, state.opening), 0.0)
+        # only particles that opened themselves soften (by more than round-off, OPENED):
+        # the window's sum must not weaken an intact neighbour, which would then yield too
+        # and spread the band over a plateau
+        w = band_opening(model, state.opening)
+        if gated:
+            w = jnp.where(state.opening * model.lattice_spacing > OPENED * w_c, w, 0.0)
         p0 = model.p0_init * jnp.exp(-w / w_c)
     else:
         p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
