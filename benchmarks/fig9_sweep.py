@@ -95,6 +95,8 @@ def run_batch(rows: list[dict[str, float]], setup: PSTSetup) -> list[dict[str, A
                 "dx": setup.dx,
                 "length": setup.length,
                 "lateral": setup.lateral,
+                "slab_fracture": setup.slab_fracture,
+                "seed": setup.seed,
                 "arrested": bool(s["arrested"]),
                 "L_ca_m": s["arrest_position_m"],
                 "A_ca_m": s["arrest_length_m"],
@@ -184,6 +186,10 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--no-check-dx", action="store_true", help="skip the dx 0.02 check")
     ap.add_argument("--fig8", action="store_true", help="only the Fig. 8 cases")
     ap.add_argument("--lateral", default="constrained", help="lateral condition for --fig8")
+    ap.add_argument(
+        "--slab-fracture", default="paper", help="slab fracture model: paper or crack_band"
+    )
+    ap.add_argument("--seed", type=int, default=0, help="tensile-strength field (crack_band)")
     a = ap.parse_args(argv)
     t_start = time.perf_counter()
     if a.fig8:
@@ -191,7 +197,8 @@ def main(argv: list[str]) -> int:
             print(json.dumps({"case": "fig8", **r}), flush=True)
         return 0
     length, duration = (40.0, 1.5) if a.small else (a.length, a.duration)
-    setup = PSTSetup(length=length, dx=a.dx, duration=duration, chunk_steps=2000)
+    slab = dict(slab_fracture=a.slab_fracture, seed=a.seed)
+    setup = PSTSetup(length=length, dx=a.dx, duration=duration, chunk_steps=2000, **slab)
     rows: list[dict[str, Any]] = []
     for group in a.groups.split(","):
         todo = members(group, a.small)
@@ -203,7 +210,7 @@ def main(argv: list[str]) -> int:
             rows.append(r)
     if not a.no_check_dx and not a.small:
         probe = {**BASE, "strength_gradient": 300.0}
-        fine = PSTSetup(length=length, dx=0.02, duration=duration, chunk_steps=2000)
+        fine = PSTSetup(length=length, dx=0.02, duration=duration, chunk_steps=2000, **slab)
         coarse = next((r for r in rows if r["params"] == probe), run_batch([probe], setup)[0])
         check = run_batch([probe], fine)[0]
         print(

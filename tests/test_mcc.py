@@ -233,3 +233,31 @@ def test_crack_band_gradient_is_finite_without_softening():
     for g_f in (jnp.inf, 0.3):
         grads = jax.grad(f, argnums=(0, 1))(jnp.asarray(g_f), jnp.asarray(2000.0))
         assert all(np.isfinite(float(g)) for g in grads)
+
+
+@settings(max_examples=10, deadline=None)
+@given(steps=st.integers(3, 200), width=st.sampled_from([0.005, 0.02, 0.08]))
+def test_energy_consistent_band_dissipates_the_fracture_energy_on_any_time_step(steps, width):
+    # one band of width `width` pulled apart in `steps` strain increments, as few as three:
+    # each step's work is the softening curve's integral over the step's opening, so the
+    # sum is G_f (1 - exp(-w / w_c)) to round-off, however coarse the steps (the explicit
+    # strength of the step's start overcounts by ~ 1 + h / 2 for an opening h w_c per step)
+    p0_init = mcc.p0_from_tensile_strength(4000.0, M, BETA, "paper", "3d")
+    sigma_y = float(mcc.uniaxial_strengths(p0_init, M, BETA, "3d")[0])
+    g_f = 0.12
+    w_c = float(mcc.crack_band_opening(p0_init, g_f, M, BETA, "3d"))
+    rate = width / w_c
+    eps_end = 8.0 * w_c / width + sigma_y / E
+    eps_p = opening = work = 0.0
+    for eps in np.linspace(0.0, eps_end, steps + 1)[1:]:
+        p0 = p0_init * np.exp(-opening * width / w_c)
+        sig, dxx, _ = mcc.return_map_uniaxial_softening(
+            jnp.asarray(E * (eps - eps_p)), p0, p0, rate, 0.0, M, BETA, E, "3d"
+        )
+        sig, dxx = float(sig), float(dxx)
+        eps_p += dxx
+        opening += max(dxx, 0.0)
+        work += sig * dxx * width
+    expected = g_f * (1.0 - np.exp(-opening * width / w_c))
+    assert work == pytest.approx(expected, rel=1e-4)
+    assert opening * width > 7.0 * w_c  # the band opened through its softening
