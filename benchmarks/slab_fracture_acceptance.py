@@ -14,27 +14,25 @@ delta 0, L_ss 20 m, 100 m, 3 s; the slab model's defaults for G_f, the strength 
 coefficient of variation and correlation length (`damjax.materials.slab_fracture`);
 ``--fracture-energy``, ``--strength-cov`` and ``--strength-length`` override them.
 
-Measured 2026-11-25 (2 shared CPU cores; commit 2de2a48, JSON lines in
-results_slab_fracture/: grid_dx004_002, grid_dx001_seeds01, grid_dx001_seeds234_theta150,
-homogeneous_theta150,
-fracture_energy_scan_theta150, insitu_jbc_dx004[_paper]):
+Measured 2026-11-25 at commit 1137f3f (the energy-consistent crack-band return map; idle
+2-core machine; JSON lines in results_slab_fracture/: grid_dx004_002, grid_dx001,
+insitu_jbc_dx004, insitu_jbc_dx002, lowest_theta_delta1; the runs of commit 2de2a48, before
+it, are in results_slab_fracture/explicit_softening_2de2a48/):
 
-| case | dx [m] | seeds | first fracture [m] | fractures | arrest | paper |
-|---|---|---|---|---|---|---|
-| theta 150, crack_band | 0.04 | 0-4 | 12.41-14.59 | 2-3 | none (tip 21.0-22.4 m at 3 s) | 34 m, 1 |
-| theta 150, crack_band | 0.02 | 0-4 | 12.53-14.60 | 2 | none (tip 17.7-19.7 m) | |
-| theta 150, crack_band | 0.01 | 0-4 | 12.62-14.63 | 2 | none (tip 15.7-17.6 m) | |
-| theta 30, crack_band | 0.04, 0.02, 0.01 | as above | as theta 150 | the same | none | 94 m, 4 |
-| theta 150 / 30, paper slab | 0.04 | - | 35.05 / 95.01 | 1 / 1 | 35.4 / 95.4 m | |
-| Jim Bay Corner (theta 15, delta 1), crack_band | 0.04 | 0-4 | 13.2-16.8 | 2-3 | none | 4 |
-| the same, paper slab | 0.04 | - | 77.0 | 1 | runs through | |
+Mean arrest [m] (range) and fractures per run on dx 0.04 / 0.02 / 0.01, seeds 0-4:
 
-Grid agreement (`compare`): the first fracture within 0.21 m on every grid for every seed;
-every fracture in 2 of 5 seeds (dx 0.04 / 0.02; the others add a third, small fracture
-near 2 m at t > 1 s on dx 0.04) and 0 of 5 (theta 150) with dx 0.01 (the second fracture,
-in the released slab, moves by up to 2.5 m: 6.36 -> 3.98 m for seed 0). G_f 1 / 10 / 100
-J/m^2 (theta 150, seed 0, dx 0.04): 4 fractures, no arrest / 2, no arrest / arrest at
-30.1 m, none counted.
+- theta 150, crack_band: 28.4 / 28.2 / 26.5 (24.0-31.0), 3-4 / 2-4 / 2-3 (paper: 34 m, 1);
+- theta 30, crack_band: 41.7 / 38.5 / 41.3 (32.8-48.8), 4-5 / 3-5 / 3-5 (paper: 94 m, 4);
+- theta 150 / 30, paper slab, dx 0.04: 35.4 / 95.4, 1 / 1;
+- Jim Bay Corner (theta 15, delta 1), dx 0.04: crack_band 16.4-38.8 (mean 27.7), 2-3
+  fractures (paper: arrests after 4); paper slab: runs through, 1;
+- theta 10 / 5 / 0, delta 1, dx 0.04, seeds 0-2, crack_band: 3 / 3 / 2 of 3 arrest.
+
+Grid agreement (`compare`): the first fracture (11.6-14.2 m, t 0.29-0.31 s) on every grid;
+every fracture in 2 of 5 seeds (theta 150) and 1 of 5 (theta 30) between dx 0.04 and 0.02, 1
+of 5 between 0.02 and 0.01, none on all three grids: the coarser grid adds fractures in the
+released slab (docs/model/slab.md). Run time per 100 m PST (3 s): 5-11 s on dx 0.04, 20-26 s
+on 0.02, 73-86 s on 0.01.
 """
 
 from __future__ import annotations

@@ -8,9 +8,12 @@ ratio to that step. 100 m PST, dx 0.02 m, sigma_t 6 kPa, theta 150 Pa/m.
 
     python -m benchmarks.slab_fracture_timing --repeats 7
 
-Measured 2026-11-25 (2 shared CPU cores under a load of 7-11, commit 45944bb): paper
-1.01 / 1.02 x, crack_band 1.16 / 1.04 x in two runs (results_slab_fracture/step_timing.jsonl
-holds the second); with reduce_window for the band opening (before 45944bb) 1.19 / 1.72 x.
+Measured 2026-11-25 on an idle 2-core machine at commit 1137f3f (results_slab_fracture/
+step_timing.jsonl): paper 1.03 x, crack_band 1.85 x (0.288 / 0.515 / 0.279 ms per step): the
+crack-band return map's coupled Newton iteration (4 steps with a window sum each) costs the
+difference; 2 or 3 steps measured 1.66-1.94 x. Before it (commit 45944bb, explicit softening,
+a load of 7-11): paper 1.01 / 1.02 x, crack_band 1.16 / 1.04 x; with reduce_window for the
+band opening (before 45944bb) 1.19 / 1.72 x.
 """
 
 from __future__ import annotations
