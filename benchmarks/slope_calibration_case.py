@@ -84,13 +84,15 @@ def synthetic_case(
     fine_dx: float | None = None,
     obs_cell: float = 0.5,
     seed: int = 7,
-    fracture_energy: float = G_F,
+    fracture_energy: float | None = G_F,
+    slab_fracture: str = "paper",
 ) -> dict:
     """Truth field, reference (fine) run, observed map, measured map, coarse problem.
 
     The reference runs on ``fine_dx`` (default dx / 2) with 2 x 2 particles per cell; the
-    slab's fracture energy ``fracture_energy`` [J/m^2] (inf: perfectly plastic) is known
-    to the calibration."""
+    slab's fracture energy ``fracture_energy`` [J/m^2] (inf: perfectly plastic; None: the
+    slab model's own) and its model ``slab_fracture`` ("paper" or "crack_band", with the
+    same seeded tensile-strength field on both grids) are known to the calibration."""
     fine_dx = 0.5 * dx if fine_dx is None else fine_dx
     xf = np.arange(0.0, L + 1e-9, 0.125)
     yf = np.arange(0.0, W + 1e-9, 0.125)
@@ -118,6 +120,7 @@ def synthetic_case(
         start=start,
         particles_per_cell=2,
         chunk_steps=50,
+        slab_fracture=slab_fracture,
     )
     t0 = time.perf_counter()
     ref = simulate_slope(
@@ -128,7 +131,14 @@ def synthetic_case(
     )
     ref_time = time.perf_counter() - t0
     coarse = SlopeSetup(
-        length=L, width=W, dx=dx, duration=1.5, start=start, particles_per_cell=1, chunk_steps=50
+        length=L,
+        width=W,
+        dx=dx,
+        duration=1.5,
+        start=start,
+        particles_per_cell=1,
+        chunk_steps=50,
+        slab_fracture=slab_fracture,
     )
     grid = sc.observation_grid(coarse, obs_cell)
     observed = sc.observed_release(ref, grid, noise_std=0.2, seed=seed)
@@ -164,17 +174,30 @@ def main(argv: list[str]) -> int:
     ap.add_argument(
         "--fracture-energy",
         type=float,
-        default=G_F,
-        help="slab fracture energy G_f [J/m^2] (inf: the perfectly plastic slab)",
+        default=None,
+        help=f"slab fracture energy G_f [J/m^2] (inf: the perfectly plastic slab; default "
+        f"{G_F} for the paper slab, the model's own for crack_band)",
+    )
+    ap.add_argument(
+        "--slab-fracture",
+        default="paper",
+        help="slab fracture model: paper (one-cell softening with --fracture-energy) or "
+        "crack_band (its own G_f, 0.12 J/m^2, unless --fracture-energy is given)",
     )
     a = ap.parse_args(argv)
-    c = synthetic_case(dx=a.dx, fine_dx=a.fine_dx, fracture_energy=a.fracture_energy)
+    g_f = a.fracture_energy
+    if g_f is None and a.slab_fracture == "paper":
+        g_f = G_F
+    c = synthetic_case(
+        dx=a.dx, fine_dx=a.fine_dx, fracture_energy=g_f, slab_fracture=a.slab_fracture
+    )
     s = c["reference"].summary
     print(
         json.dumps(
             dict(
                 case="slope_calibration_reference",
-                fracture_energy=a.fracture_energy,
+                slab_fracture=a.slab_fracture,
+                fracture_energy=g_f,
                 release_area_m2=s["release_area_m2"],
                 upslope_arrest_distance_m=s["upslope_arrest_distance_m"],
                 n_particles=s["n_particles"],
@@ -199,7 +222,8 @@ def main(argv: list[str]) -> int:
         json.dumps(
             dict(
                 case="slope_calibration",
-                fracture_energy=a.fracture_energy,
+                slab_fracture=a.slab_fracture,
+                fracture_energy=g_f,
                 true_sigma_t=TRUE_SIGMA_T,
                 start=a.start,
                 sigma_t=est,
