@@ -29,8 +29,8 @@ steps, 348 s) releases 58.5 m^2, arrest 5.48 m up-slope of the start (the truth 
 2 x 2: grid-independent); calibration 15 360 particles, 3250 steps, 12 Adam steps in
 770 s: sigma_t 2500 -> 2763 -> 3027 -> 3289 -> 3555 -> 3818 (loss 0.0107, the estimate)
 -> 4091 -> 4239 -> 4296 -> 4280 -> 4226 -> 4136: **-4.6 %** of the true 4000 Pa (target
-10 %: met); every iterate from the sixth on lies within 7.4 % of the truth. Re-run at stop
-16 (same machine type, nothing else running): the same reference (58.5 m^2, 5.48 m; 184.7 s)
+10 %: met); every iterate from the sixth on lies within 7.4 % of the truth. Re-run at commit
+5f73c49 (same machine type, nothing else running): the same reference (58.5 m^2, 5.48 m; 184.7 s)
 and iterates to 1 Pa, the estimate 3817.9 Pa (-4.55 %) at iteration 5; 12 min 30 s in all.
 
 Measured with the perfectly plastic slab (`--fracture-energy inf`; quiet 2-core AMD EPYC,
@@ -111,17 +111,19 @@ def synthetic_case(
     def centres(h: float) -> tuple[np.ndarray, np.ndarray]:
         return (np.arange(round(L / h)) + 0.5) * h, (np.arange(round(W / h)) + 0.5) * h
 
-    start = (2.0, W / 2)
-    fine = SlopeSetup(
-        length=L,
-        width=W,
-        dx=fine_dx,
-        duration=1.5,
-        start=start,
-        particles_per_cell=2,
-        chunk_steps=50,
-        slab_fracture=slab_fracture,
-    )
+    def slope_setup(h: float, particles_per_cell: int) -> SlopeSetup:
+        return SlopeSetup(
+            length=L,
+            width=W,
+            dx=h,
+            duration=1.5,
+            start=(2.0, W / 2),  # crack initiation, 2 m up-slope of the lower edge
+            particles_per_cell=particles_per_cell,
+            chunk_steps=50,
+            slab_fracture=slab_fracture,
+        )
+
+    fine = slope_setup(fine_dx, 2)
     t0 = time.perf_counter()
     ref = simulate_slope(
         fig12_params(tensile_strength=TRUE_SIGMA_T, slab_fracture_energy=fracture_energy),
@@ -130,16 +132,7 @@ def synthetic_case(
         tau_peak=fields.map_on_grid(xf, yf, true_tau, *centres(fine_dx)),
     )
     ref_time = time.perf_counter() - t0
-    coarse = SlopeSetup(
-        length=L,
-        width=W,
-        dx=dx,
-        duration=1.5,
-        start=start,
-        particles_per_cell=1,
-        chunk_steps=50,
-        slab_fracture=slab_fracture,
-    )
+    coarse = slope_setup(dx, 1)
     grid = sc.observation_grid(coarse, obs_cell)
     observed = sc.observed_release(ref, grid, noise_std=0.2, seed=seed)
     rng = np.random.default_rng(seed + 1)
