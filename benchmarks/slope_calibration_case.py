@@ -33,6 +33,15 @@ steps, 348 s) releases 58.5 m^2, arrest 5.48 m up-slope of the start (the truth 
 5f73c49 (same machine type, nothing else running): the same reference (58.5 m^2, 5.48 m; 184.7 s)
 and iterates to 1 Pa, the estimate 3817.9 Pa (-4.55 %) at iteration 5; 12 min 30 s in all.
 
+Measured with the crack-band slab (`--slab-fracture crack_band`: its own G_f 0.12 J/m^2 and
+the same seeded tensile-strength field on both grids; 2026-11-25, commit 02ee6cc; JSON lines
+in results_slab_fracture/slope_calibration_crack_band.jsonl): the reference releases
+43.5 m^2, arrest 3.45 m up-slope of the start. From 2500 Pa, 12 Adam steps: 2500 -> 2262 ->
+... -> 2901 Pa (loss 0.043 -> 0.027, still falling; the first gradient points away from
+the truth): -27.5 %, not within 10 %. Restarted from 2901 Pa (`--start 2901 --steps 20`,
+stopped after 16): 3206 -> 3435 -> 3629 -> 3814 -> 3974 Pa (loss 0.0088, the estimate,
+-0.6 %) -> 4094 ... 4542 (loss 0.015-0.021): within 10 % after 17 steps in all (899 s).
+
 Measured with the perfectly plastic slab (`--fracture-energy inf`; quiet 2-core AMD EPYC,
 2026-11-23): reference dx 0.0625 m (245 760
 particles, 6500 steps, 241 s) releases 65.9 m^2, arrest 6.17 m up-slope of the start;
