@@ -106,7 +106,7 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
     if model.dim == 1 and model.lateral == "free":
         sig_tr = E * (eps[0] - eps_p[0])
         if model.plastic:
-            p0 = _p0(model, state)
+            p0, p0_band = _p0_and_band(model, state)
             if model.crack_band and model.lattice:
                 # the band's other particles open in the step too: each Newton step
                 # takes their openings (the window sum, `band_opening`) at the current
@@ -124,7 +124,7 @@ def constitutive(model: Model, state: State, eps: Any) -> tuple[Any, Any, Any, A
                 sxx, dxx, dyy = mcc.return_map_uniaxial_softening(
                     sig_tr,
                     p0,
-                    _p0(model, state, gated=False),
+                    p0_band,
                     rate,
                     others,
                     model.mcc_m,
@@ -245,27 +245,33 @@ def fracture_strain(model: Model) -> Any:
     return fracture_opening(model) / model.dx
 
 
-def _p0(model: Model, state: State, gated: bool = True) -> Any:
+def _p0(model: Model, state: State) -> Any:
     """Current consolidation pressure, explicit in the previous step's plastic strains:
     SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
     the band's opening (G_f): `band_opening` for the "crack_band" slab, the opening
-    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f.
+    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f."""
+    return _p0_and_band(model, state)[0]
 
-    ``gated`` False: the crack-band strength of every particle as if it had opened (the
-    strength a particle of the band takes on once it yields; `constitutive`)."""
+
+def _p0_and_band(model: Model, state: State) -> tuple[Any, Any]:
+    """(`_p0`, the band's p0): for the "crack_band" slab the second is every particle's
+    strength as if it had opened, the strength a particle of a band takes on once it
+    yields (`constitutive`); both from one band opening. Otherwise the same p0 twice."""
     bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
     w_c = crack_band_opening(model)
-    if model.crack_band and model.lattice:
-        # only particles that opened themselves soften (by more than round-off, OPENED):
-        # the window's sum must not weaken an intact neighbour, which would then yield too
-        # and spread the band over a plateau
-        w = band_opening(model, state.opening)
-        if gated:
-            w = jnp.where(state.opening * model.lattice_spacing > OPENED * w_c, w, 0.0)
-        p0 = model.p0_init * jnp.exp(-w / w_c)
-    else:
+    eps_pv = state.eps_p[0] + state.eps_p[1]
+    if not (model.crack_band and model.lattice):
         p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
-    return mcc.softened_p0(p0, state.eps_p[0] + state.eps_p[1], model.mcc_xi, bulk)
+        p0 = mcc.softened_p0(p0, eps_pv, model.mcc_xi, bulk)
+        return p0, p0
+    # only particles that opened themselves soften (by more than round-off, OPENED): the
+    # window's sum must not weaken an intact neighbour, which would then yield too and
+    # spread the band over a plateau
+    w = band_opening(model, state.opening)
+    opened = state.opening * model.lattice_spacing > OPENED * w_c
+    own = model.p0_init * jnp.exp(-jnp.where(opened, w, 0.0) / w_c)
+    band = model.p0_init * jnp.exp(-w / w_c)
+    return tuple(mcc.softened_p0(q, eps_pv, model.mcc_xi, bulk) for q in (own, band))
 
 
 def step(model: Model, state: State) -> State:
