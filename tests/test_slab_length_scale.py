@@ -182,14 +182,12 @@ def test_energy_per_fracture_is_the_fracture_energy_on_two_grids():
     # fracture soften with it, and the strength of the step's start overcounts the work
     # of a band that opens by ~w_c per step. The closing work (compressive yielding of
     # intact particles beside the band after it opened, 0-0.74 G_f h) is not counted.
-    from damjax.core.step import band_opening
+    from damjax.pst import slab_fractures
 
     for dx in (0.08, 0.04):
         model, final, opening_work, _ = _plastic_work(*_small_pst(dx))
         x = np.asarray(model.saw_coord)
-        fr = slab_fracture.fractures(
-            x, np.asarray(band_opening(model, final.opening)), np.asarray(final.t_fracture)
-        )
+        fr = slab_fractures(model, final)
         first = fr[0]
         near = np.abs(x - first["x_m"]) < 0.5
         g_f_h = float(model.fracture_energy) * float(model.thickness)
@@ -197,6 +195,48 @@ def test_energy_per_fracture_is_the_fracture_energy_on_two_grids():
         # the band is a few cells wide, not the whole tension zone
         opened = x[near & (np.asarray(final.opening) * model.lattice_spacing > 1e-4)]
         assert opened.max() - opened.min() <= 0.35, dx
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the 2D (plane-stress) crack-band map softens with the band opening of the "
+    "step's start: a fracture across a 0.3 m strip dissipated 2.72 G_f h W on dx 0.08 "
+    "(2.41 with a 4 x smaller step; 2.00 on dx 0.04), over a band 3 cells wide",
+)
+def test_energy_per_fracture_across_a_2d_strip_is_the_fracture_energy():
+    import dataclasses
+
+    from damjax.pst import slab_fractures
+
+    params, setup = _small_pst(0.08)
+    setup = dataclasses.replace(setup, dim=2, width=0.3)
+    model, final, opening_work, _ = _plastic_work(params, setup)
+    x = np.asarray(model.saw_coord)
+    fr = slab_fractures(model, final)
+    near = np.abs(x - fr[0]["x_m"]) < 0.5
+    g_f_h_w = float(model.fracture_energy) * float(model.thickness) * setup.width
+    assert float(opening_work[near].sum()) == pytest.approx(g_f_h_w, rel=0.1)
+
+
+def test_skipping_the_newton_steps_of_settled_bands_changes_nothing(monkeypatch):
+    # the crack-band return map skips its Newton steps while the band of every particle
+    # that yields in tension has let go (p0 at most mcc.SETTLED = 1e-4 of its intact p0):
+    # the same run with the steps on whenever a particle yields in tension gives the
+    # same fractures and work
+    from damjax.materials import mcc
+    from damjax.pst import slab_fractures
+
+    runs = []
+    for settled in (mcc.SETTLED, 0.0):
+        monkeypatch.setattr(mcc, "SETTLED", settled)
+        model, final, opening_work, _ = _plastic_work(*_small_pst(0.08))
+        runs.append((slab_fractures(model, final), opening_work))
+    (skip, work_skip), (always, work_always) = runs
+    assert len(skip) == len(always) >= 1
+    for a, b in zip(skip, always, strict=True):
+        assert a["x_m"] == pytest.approx(b["x_m"], abs=0.05)
+        assert a["t_s"] == pytest.approx(b["t_s"], abs=1e-3)
+    assert work_skip.sum() == pytest.approx(work_always.sum(), rel=1e-3)
 
 
 def test_homogeneous_slab_fractures_where_the_tension_first_reaches_the_strength():
