@@ -41,6 +41,11 @@ in results_slab_fracture/slope_calibration_crack_band.jsonl): the reference rele
 the truth): -27.5 %, not within 10 %. Restarted from 2901 Pa (`--start 2901 --steps 20`,
 stopped after 16): 3206 -> 3435 -> 3629 -> 3814 -> 3974 Pa (loss 0.0088, the estimate,
 -0.6 %) -> 4094 ... 4542 (loss 0.015-0.021): within 10 % after 17 steps in all (899 s).
+With central differences (`--slab-fracture crack_band --gradient fd`, commit 7d33013,
+2026-11-25): 2500 -> 2763 -> ... -> 3955 Pa (loss 0.0085, the estimate, -1.1 %) -> 4032,
+stopped after 10 iterations, 353 s. Reverse mode at 2500 Pa gives d loss / d log sigma_t
+= +3e-4 where differences give -0.064 (2 %) / -0.20 (0.5 %): it misses how the slab
+fractures move with sigma_t.
 
 Measured with the perfectly plastic slab (`--fracture-energy inf`; quiet 2-core AMD EPYC,
 2026-11-23): reference dx 0.0625 m (245 760
@@ -186,6 +191,13 @@ def main(argv: list[str]) -> int:
         help="slab fracture model: paper (one-cell softening with --fracture-energy) or "
         "crack_band (its own G_f, 0.12 J/m^2, unless --fracture-energy is given)",
     )
+    ap.add_argument(
+        "--gradient",
+        choices=("ad", "fd"),
+        default="ad",
+        help="ad: reverse mode through the run; fd: central differences of forward runs",
+    )
+    ap.add_argument("--fd-step", type=float, default=0.02, help="fd step in log sigma_t")
     a = ap.parse_args(argv)
     g_f = a.fracture_energy
     if g_f is None and a.slab_fracture == "paper":
@@ -218,6 +230,8 @@ def main(argv: list[str]) -> int:
         steps=a.steps,
         learning_rate=a.lr,
         progress=True,
+        gradient=a.gradient,
+        fd_step=a.fd_step,
     )
     est = fit.estimates["tensile_strength"]
     print(
@@ -225,6 +239,7 @@ def main(argv: list[str]) -> int:
             dict(
                 case="slope_calibration",
                 slab_fracture=a.slab_fracture,
+                gradient=a.gradient,
                 fracture_energy=g_f,
                 true_sigma_t=TRUE_SIGMA_T,
                 start=a.start,

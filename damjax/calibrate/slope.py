@@ -20,7 +20,8 @@ symmetric difference between the two release zones for sharp maps, per cell.
 `calibrate_slope` evaluates it per particle (each particle's damage D_p against the
 observed value of the observation cell it sits in), which keeps the sub-cell position of
 the simulated front in the loss. Gradients come from reverse mode through the whole run
-(`damjax.core.loop.integrate_pure`, one state stored per segment of ~sqrt(n_steps) steps).
+(`damjax.core.loop.integrate_pure`, one state stored per segment of ~sqrt(n_steps) steps),
+or, with ``calibrate_slope(..., gradient="fd")``, from central differences of forward runs.
 The run is the host-loop solver's step (`damjax.core.step.step`) and initial state
 (`damjax.core.model.build_slope`); only the slab/weak-layer leaves that depend on the
 calibrated parameters (p0, delta, u_r) are replaced by traced values.
@@ -238,17 +239,14 @@ class SlopeCalibration:
     best_iteration: int = 0
 
 
-def loss_and_grad(
+def _release_loss_fn(
     problem: SlopeProblem,
     observed: Any,
     grid: ObservationGrid,
     fields: Sequence[str],
-    width: float = DAMAGE_WIDTH,
+    width: float,
 ) -> Any:
-    """jitted ``f(log_values (k,), fixed (2,)) -> (loss, d loss / d log_values)``, the
-    per-particle release loss (module doc), for the
-    calibrated `fields` (a subset of ("tensile_strength", "softening")); ``fixed`` holds
-    (sigma_t, delta) for the fields not calibrated."""
+    """``loss(log_values (k,), fixed (2,))``: the per-particle release loss of a run."""
     idx = [CALIBRATED.index(f) for f in fields]
     flat, _ = _bins(problem.xp, problem.yp, grid)
     obs_p = jnp.asarray(np.asarray(observed, dtype=float).ravel()[flat])
@@ -263,7 +261,50 @@ def loss_and_grad(
         )
         return release_loss(particle_damage(model, final, width), obs_p)
 
+    return loss
+
+
+def loss_and_grad(
+    problem: SlopeProblem,
+    observed: Any,
+    grid: ObservationGrid,
+    fields: Sequence[str],
+    width: float = DAMAGE_WIDTH,
+) -> Any:
+    """jitted ``f(log_values (k,), fixed (2,)) -> (loss, d loss / d log_values)``, the
+    per-particle release loss (module doc), for the
+    calibrated `fields` (a subset of ("tensile_strength", "softening")); ``fixed`` holds
+    (sigma_t, delta) for the fields not calibrated."""
+    loss = _release_loss_fn(problem, observed, grid, fields, width)
     return jax.jit(jax.value_and_grad(loss), compiler_options=cpu_compiler_options())
+
+
+def loss_and_fd_grad(
+    problem: SlopeProblem,
+    observed: Any,
+    grid: ObservationGrid,
+    fields: Sequence[str],
+    step: float = 0.02,
+    width: float = DAMAGE_WIDTH,
+) -> Any:
+    """`loss_and_grad` with central differences in the log values instead of reverse mode:
+    ``f(log_values, fixed) -> (loss, gradient)`` from 1 + 2 k forward runs, ``step`` the
+    difference in log space (0.02: +-2 %). For slabs whose fractures stop the crack (the
+    "crack_band" slab), where reverse mode does not see how the released area moves with
+    sigma_t (docs/verification/slope-calibration.md)."""
+    loss = jax.jit(
+        _release_loss_fn(problem, observed, grid, fields, width),
+        compiler_options=cpu_compiler_options(),
+    )
+
+    def value_and_fd_grad(logv: Any, fixed: Any) -> tuple[Any, Any]:
+        g = [
+            (loss(logv.at[k].add(step), fixed) - loss(logv.at[k].add(-step), fixed)) / (2.0 * step)
+            for k in range(logv.shape[0])
+        ]
+        return loss(logv, fixed), jnp.stack(g)
+
+    return value_and_fd_grad
 
 
 def calibrate_slope(
@@ -277,6 +318,8 @@ def calibrate_slope(
     learning_rate: float = 0.1,
     tol: float = 1e-3,
     progress: bool = False,
+    gradient: str = "ad",
+    fd_step: float = 0.02,
 ) -> SlopeCalibration:
     """Fit `fields` (sigma_t [Pa], delta [-]) so the simulated release map matches
     `observed` (an (nx, ny) map on `grid`, 1 = released).
@@ -285,7 +328,10 @@ def calibrate_slope(
     `learning_rate` decaying as 1 / sqrt(1 + k / 5); stops after `steps` iterations or
     when the relative change of every parameter falls below `tol`, and returns the
     evaluated iterate with the lowest loss. The fields not fitted keep their `initial`
-    value or the problem's parameters.
+    value or the problem's parameters. ``gradient``: "ad" (reverse mode through the run,
+    `loss_and_grad`) or "fd" (central differences of ``fd_step`` in the log values,
+    `loss_and_fd_grad`: 3 forward runs per step for one field; for the "crack_band" slab,
+    whose reverse-mode gradient misses the motion of its fractures).
     """
     import time
 
@@ -300,7 +346,14 @@ def calibrate_slope(
     dtype = problem.model.p0_init.dtype
     fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
-    vg = loss_and_grad(problem, observed, grid, fields)
+    if gradient not in ("ad", "fd"):
+        raise ValueError(f"calibrate_slope: gradient must be 'ad' or 'fd', got {gradient!r}")
+    if not (math.isfinite(fd_step) and 0.0 < fd_step <= 0.5):
+        raise ValueError(f"calibrate_slope: fd_step must be in (0, 0.5] (log space), got {fd_step}")
+    if gradient == "fd":
+        vg = loss_and_fd_grad(problem, observed, grid, fields, fd_step)
+    else:
+        vg = loss_and_grad(problem, observed, grid, fields)
     import optax  # deferred: importing damjax stays light
 
     sched = optax.scale_by_schedule(lambda k: 1.0 / jnp.sqrt(1.0 + k / 5.0))
