@@ -33,6 +33,13 @@ every fracture in 2 of 5 seeds (theta 150) and 1 of 5 (theta 30) between dx 0.04
 of 5 between 0.02 and 0.01, none on all three grids: the coarser grid adds fractures in the
 released slab (docs/model/slab.md). Run time per 100 m PST (3 s): 5-11 s on dx 0.04, 20-26 s
 on 0.02, 73-86 s on 0.01.
+
+What the paper's arrests would need, measured 2026-11-25 at commit faa1829 on dx 0.04
+(results_slab_fracture/gf_cov_scan.jsonl, gf_cov_grids.jsonl, sigma_t_sensitivity.jsonl;
+docs/model/slab.md): 94 m at theta 30 needs CoV 0 and G_f >= 50 J/m^2 (35.2 / 94.7 m); with
+CoV 0.2 no G_f up to 250 J/m^2 passes 68.8 m (the weakest section of the field caps the
+force the slab carries, `benchmarks.slab_weakest_link`). sigma_t moved by 1-2 % adds or
+removes a fracture in one seed of three while every arrest moves by at most 0.6 m.
 """
 
 from __future__ import annotations
@@ -78,6 +85,7 @@ def run_one(args: argparse.Namespace, theta: float, seed: int, dx: float) -> dic
         "slab_strength_cov": params.slab_strength_cov,
         "slab_strength_length": params.slab_strength_length,
         "length": args.length,
+        "sigma_t": args.sigma_t,
         "theta": theta,
         "delta": args.delta,
         "seed": seed,
