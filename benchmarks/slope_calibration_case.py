@@ -41,7 +41,7 @@ in results_slab_fracture/slope_calibration_crack_band.jsonl): the reference rele
 the truth): -27.5 %, not within 10 %. Restarted from 2901 Pa (`--start 2901 --steps 20`,
 stopped after 16): 3206 -> 3435 -> 3629 -> 3814 -> 3974 Pa (loss 0.0088, the estimate,
 -0.6 %) -> 4094 ... 4542 (loss 0.015-0.021): within 10 % after 17 steps in all (899 s).
-With central differences (`--slab-fracture crack_band --gradient fd`, commit 7d33013,
+With central differences (`--slab-fracture crack_band --gradient fd`, the code of commit b4722b0,
 2026-11-25): 2500 -> 2763 -> ... -> 3955 Pa (loss 0.0085, the estimate, -1.1 %) -> 4032,
 stopped after 10 iterations, 353 s. Reverse mode at 2500 Pa gives d loss / d log sigma_t
 = +3e-4 where differences give -0.064 (2 %) / -0.20 (0.5 %): it misses how the slab
