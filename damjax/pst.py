@@ -313,7 +313,7 @@ def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     elastic slab) use the opening strain (`damjax.diagnostics.slab_fractures`)."""
     x_ref = np.asarray(model.saw_coord)
     if model.lattice:
-        w = np.asarray(band_opening(model, state.opening))
+        w = np.asarray(band_opening(model, state.opening, opening_y=state.opening_y))
         return slab_fracture.fractures(x_ref, w, np.asarray(state.t_fracture))
     return diagnostics.slab_fractures(
         x_ref,

@@ -271,7 +271,7 @@ def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
             f"{path}: chunk {chunk} of {int(ck['n_chunks'])} does not fit this run's "
             f"{layout.n_chunks} chunks"
         )
-    state = io.arrays_to_tree(ck, template, "state")
+    state = io.arrays_to_tree(_with_opening_y(ck), template, "state")
     tips = [np.asarray(t) for t in ck["tips"]]
     if len(tips) != chunk:
         raise ValueError(f"{path}: {len(tips)} chunks of crack tips for {chunk} chunks done")
@@ -465,7 +465,16 @@ def load_final_state(out_dir: str | os.PathLike[str]) -> Any:
     else:
         scn, _ = load_result(out_dir)
     _, _, _, template = _prepare(scn)
-    return io.arrays_to_tree(io.read_npz(Path(out_dir) / FINAL_STATE), template, "state")
+    arrays = _with_opening_y(io.read_npz(Path(out_dir) / FINAL_STATE))
+    return io.arrays_to_tree(arrays, template, "state")
+
+
+def _with_opening_y(arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Saved states from before `State.opening_y` (2026-11-25): zero, which is what every
+    1D run has; a 2D run's earlier openings then all count along x."""
+    if "state.opening" in arrays and "state.opening_y" not in arrays:
+        arrays = {**arrays, "state.opening_y": np.zeros_like(arrays["state.opening"])}
+    return arrays
 
 
 def show(

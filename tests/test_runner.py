@@ -181,6 +181,13 @@ def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
     assert_same_run(ref.out_dir, out)
     final = runner.load_final_state(out)
     assert float(final.time) == pytest.approx(scn.setup.duration, rel=1e-3)  # float32 sum
+    # a state saved before State.opening_y existed loads with it zero
+    arrays = io.read_npz(out / runner.FINAL_STATE)
+    del arrays["state.opening_y"]
+    io.write_npz(out / runner.FINAL_STATE, arrays)
+    old = runner.load_final_state(out)
+    assert np.all(np.asarray(old.opening_y) == 0.0)
+    np.testing.assert_array_equal(np.asarray(old.opening), np.asarray(final.opening))
 
 
 def _start(env: dict, *args: str) -> subprocess.Popen:

@@ -197,25 +197,61 @@ def test_energy_per_fracture_is_the_fracture_energy_on_two_grids():
         assert opened.max() - opened.min() <= 0.35, dx
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the 2D (plane-stress) crack-band map softens with the band opening of the "
-    "step's start: a fracture across a 0.3 m strip dissipated 2.72 G_f h W on dx 0.08 "
-    "(2.41 with a 4 x smaller step; 2.00 on dx 0.04), over a band 3 cells wide",
-)
 def test_energy_per_fracture_across_a_2d_strip_is_the_fracture_energy():
+    # the 2D (plane-stress) map is energy-consistent as the 1D one is, and the band's
+    # opening is the length of its jump (x part summed along x, y part along y). Measured
+    # 2026-11-25 (seed 0, one fracture near 15.0-15.2 m at t = 0.32 s): 1.06 / 1.09 G_f h W
+    # on dx 0.08 / 0.04 (1.06 on 0.02), W the modelled width (0.32 m: the 0.3 m strip is
+    # 4 / 8 cells wide); 2.55 / 1.88 with the strength of the step's start and the smaller
+    # of the x and y window sums as the opening
     import dataclasses
 
     from damjax.pst import slab_fractures
 
-    params, setup = _small_pst(0.08)
-    setup = dataclasses.replace(setup, dim=2, width=0.3)
-    model, final, opening_work, _ = _plastic_work(params, setup)
-    x = np.asarray(model.saw_coord)
-    fr = slab_fractures(model, final)
-    near = np.abs(x - fr[0]["x_m"]) < 0.5
-    g_f_h_w = float(model.fracture_energy) * float(model.thickness) * setup.width
-    assert float(opening_work[near].sum()) == pytest.approx(g_f_h_w, rel=0.1)
+    found = []
+    for dx in (0.08, 0.04):
+        params, setup = _small_pst(dx)
+        setup = dataclasses.replace(setup, dim=2, width=0.3)
+        model, final, opening_work, _ = _plastic_work(params, setup)
+        x = np.asarray(model.saw_coord)
+        fr = slab_fractures(model, final)
+        assert len(fr) >= 1, dx
+        found.append(fr[0])
+        near = np.abs(x - fr[0]["x_m"]) < 0.5
+        width = model.lattice[1] * model.lattice_spacing
+        g_f_h_w = float(model.fracture_energy) * float(model.thickness) * width
+        assert float(opening_work[near].sum()) == pytest.approx(g_f_h_w, rel=0.1), dx
+    # the fracture is the same on both grids
+    assert abs(found[0]["x_m"] - found[1]["x_m"]) <= 0.5
+    assert abs(found[0]["t_s"] - found[1]["t_s"]) <= 0.01
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 45.0, 60.0, 90.0])
+def test_2d_band_opening_is_the_jump_at_any_orientation(angle_deg):
+    # a straight band at angle theta to the y axis (normal n = (cos, sin)) carrying a 2 mm
+    # jump, its opening strain a Gaussian across the band (sd = the particle spacing, so
+    # the lattice's sums are its integrals): split as n_x^2 and n_y^2 between the x and y
+    # parts, every particle of the band sees w (the smaller of the x and y window sums
+    # of the whole strain would see w / max(n_x, n_y) of it)
+    from damjax.core.step import band_opening
+
+    dx, ppc, w = 0.04, 2, 2e-3
+    s = dx / ppc
+    m = int(round(4.0 / s))
+    xy = (np.indices((m, m)) + 0.5) * s
+    th = math.radians(angle_deg)
+    n = np.array([math.cos(th), math.sin(th)])
+    dist = (xy[0] - 2.0) * n[0] + (xy[1] - 2.0) * n[1]
+    strain = (w / (s * math.sqrt(2.0 * math.pi)) * np.exp(-0.5 * (dist / s) ** 2)).ravel()
+    model = _Lattice(dx, ppc, m * m)
+    model.lattice, model.dim = (m, m), 2
+    got = np.asarray(
+        band_opening(model, jnp.asarray(strain), opening_y=jnp.asarray(strain * n[1] ** 2))
+    ).reshape(m, m)
+    inner = (np.abs(dist) <= s) & (np.abs(xy[0] - 2.0) < 1.0) & (np.abs(xy[1] - 2.0) < 1.0)
+    np.testing.assert_allclose(got[inner], w, rtol=0.01)
+    far = np.abs(dist) > 2.0 * slab_fracture.OPENING_HALF_WIDTH + 10.0 * s
+    assert np.all(got[far & (np.abs(xy[0] - 2.0) < 1.0)] < 1e-3 * w)
 
 
 def test_skipping_the_newton_steps_of_settled_bands_changes_nothing(monkeypatch):

@@ -118,6 +118,10 @@ class State(eqx.Module):
     sigma: Any  # (xx, yy, xy) rows (n,) of the depth-averaged in-plane stress [Pa]
     eps_p: Any  # (xx, yy, xy) rows (n,) of the in-plane plastic strain [-]
     opening: Any  # (n,) accumulated tensile plastic strain (fracture indicator) [-]
+    # (n,) the part of ``opening`` along y: each increment's share n_y^2 for the direction
+    # n of its largest principal plastic strain (2D; zero in 1D). `band_opening` sums the
+    # x part along x and this along y, the two components of the band's jump [m]
+    opening_y: Any
     t_fracture: Any  # (n,) time the band opening first reached the fracture opening [s]
     t_broken: Any  # (n,) time the weak layer under the particle lost all cohesion [s]
     u_max: Any  # (n,) maximum slip reached (damage history) [m]

@@ -91,8 +91,10 @@ def broken_mask(model: Model, state: State) -> Any:
 
 def constitutive(
     model: Model, state: State, eps: Any, band: Any = None
-) -> tuple[Any, Any, Any, Any]:
-    """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening), rows (n,).
+) -> tuple[Any, Any, Any, Any, Any]:
+    """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening, d_opening_y),
+    rows (n,); d_opening_y (2D; None in 1D) is the part of d_opening along y, the opening
+    increment times n_y^2 for the direction n of the largest principal plastic strain.
     ``band``: `band_opening` of the state's openings, if already computed.
 
     1D strips get eps_yy from the lateral condition: "constrained" keeps eps_yy = 0,
@@ -145,20 +147,49 @@ def constitutive(
         else:
             sxx, d_open = sig_tr, zero
         eps = (eps[0], -nu * sxx / E + eps_p[1], state.eps[2])
-        return eps, (sxx, state.sigma[1], state.sigma[2]), eps_p, d_open
+        return eps, (sxx, state.sigma[1], state.sigma[2]), eps_p, d_open, None
     if model.dim == 1:  # constrained: eps_yy = 0
         eps = (eps[0], state.eps[1], eps[2])
     eps_e = tuple(a - b for a, b in zip(eps, eps_p, strict=True))
     if not model.plastic:
-        return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero
-    sigma, d_eps_p = mcc.return_map_plane(
-        eps_e, _p0(model, state, band), model.mcc_m, model.mcc_beta, E, nu, model.mcc_invariants
-    )
+        return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero, None
+    p0, p0_band = _p0_and_band(model, state, band)
+    args = (model.mcc_m, model.mcc_beta, E, nu, model.mcc_invariants)
+    if model.crack_band and model.lattice:
+        # energy-consistent, as the 1D map: the band's strength averaged over the step's
+        # opening (a fracture across a 0.3 m strip: 1.06-1.09 G_f h W on dx 0.08-0.02;
+        # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
+        w_c = crack_band_opening(model)
+        o, oy = state.opening, state.opening_y
+        w0 = _jump(model, o, oy)
+
+        def increase(d: Any) -> Any:
+            d_open, d_open_y = principal_opening(d)
+            return jnp.maximum(_jump(model, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
+
+        sigma, d_eps_p = mcc.return_map_plane_softening(
+            eps_e, p0, p0_band, increase, *args, settled=mcc.SETTLED * model.p0_init
+        )
+    else:
+        sigma, d_eps_p = mcc.return_map_plane(eps_e, p0, *args)
+    d_open, d_open_y = principal_opening(d_eps_p)
+    eps_p = tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True))
+    return eps, sigma, eps_p, d_open, (None if model.dim == 1 else d_open_y)
+
+
+def principal_opening(d_eps_p: Any) -> tuple[Any, Any]:
+    """(d_opening, d_opening_y) of a plastic strain increment (xx, yy, xy): its largest
+    principal value, floored at 0, and that times n_y^2 for its direction n, the part a
+    band normal to y takes up (`band_opening`)."""
     half = 0.5 * (d_eps_p[0] - d_eps_p[1])
-    d_open = jnp.maximum(
-        0.5 * (d_eps_p[0] + d_eps_p[1]) + jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30), 0.0
-    )
-    return eps, sigma, tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True)), d_open
+    r = jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30)
+    d_open = jnp.maximum(0.5 * (d_eps_p[0] + d_eps_p[1]) + r, 0.0)
+    return d_open, d_open * jnp.clip(0.5 - 0.5 * half / r, 0.0, 1.0)
+
+
+def _jump(model: Model, opening: Any, opening_y: Any) -> Any:
+    """`band_opening` without spread: the window sums only."""
+    return band_openings(model, opening, opening_y)[0]
 
 
 def crack_band_opening(model: Model) -> Any:
@@ -168,36 +199,52 @@ def crack_band_opening(model: Model) -> Any:
     )
 
 
-def band_opening(model: Model, opening: Any, spread: bool = True) -> Any:
+def band_opening(model: Model, opening: Any, spread: bool = True, opening_y: Any = None) -> Any:
     """Opening w [m] of the tensile band through each particle, rows (n,).
 
     With a particle lattice (`Model.lattice`), the plastic opening strain times the
     particle spacing, summed over the particles within `Model.opening_window` of it along
-    x (in 2D also along y, and the smaller of the two sums: the sum across a band, not
-    along it). A localised band, one cell or a few wide, then has the same opening, its
+    x. A localised band, one cell or a few wide, then has the same opening, its
     displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
     window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
     strain times dx (one cell).
+
+    In 2D, ``opening_y`` (`State.opening_y`) is the part of ``opening`` along y: the x
+    part summed along x and the y part summed along y are the two components of the
+    band's jump, w n_x and w n_y for a band of any orientation n (a line along x crosses
+    a band of width b over b / n_x, where the band's strain is n_x^2 w / b), and w is
+    their length. Without it (a strain with no direction, such as a compaction): the
+    smaller of the x and y sums of ``opening``, the sum across a band, not along it.
     """
     if not model.lattice:
         return opening * model.dx
-    return band_openings(model, opening)[1 if spread else 0]
+    return band_openings(model, opening, opening_y)[1 if spread else 0]
 
 
-def band_openings(model: Model, opening: Any) -> tuple[Any, Any]:
+def band_openings(model: Model, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
     """`band_opening` without and with ``spread``, from one set of window sums."""
     k = model.opening_window
-    o = opening * model.lattice_spacing
+    s = model.lattice_spacing
     # the sum over the window centred on each particle, then its largest value over the
     # window: every particle of a band sees the band's whole opening, also near its edges
     # (without spread: the window sum only, the opening of the band centred there)
     if model.dim == 1:
-        w = _window(o, k, jnp.add, 0.0, 0)
+        w = _window(opening * s, k, jnp.add, 0.0, 0)
         return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
-    grid = jnp.reshape(o, model.lattice)
-    w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
+    if opening_y is None:
+        grid = jnp.reshape(opening * s, model.lattice)
+        w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
+        spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
+        return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
+    parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
+    w = [
+        _window(jnp.reshape(o, model.lattice), k, jnp.add, 0.0, axis)
+        for axis, o in enumerate(parts)
+    ]
     spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
-    return tuple(jnp.reshape(jnp.minimum(*a), o.shape) for a in (w, spread))
+    return tuple(
+        jnp.reshape(mcc._sqrt(a[0] * a[0] + a[1] * a[1]), opening.shape) for a in (w, spread)
+    )
 
 
 def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
@@ -274,7 +321,7 @@ def _p0_and_band(model: Model, state: State, band: Any = None) -> tuple[Any, Any
     # only particles that opened themselves soften (by more than round-off, OPENED): the
     # window's sum must not weaken an intact neighbour, which would then yield too and
     # spread the band over a plateau
-    w = band_opening(model, state.opening) if band is None else band
+    w = band_opening(model, state.opening, opening_y=state.opening_y) if band is None else band
     opened = state.opening * model.lattice_spacing > OPENED * w_c
     p0_band = mcc.softened_p0(model.p0_init * jnp.exp(-w / w_c), eps_pv, model.mcc_xi, bulk)
     p0_intact = mcc.softened_p0(model.p0_init, eps_pv, model.mcc_xi, bulk)
@@ -383,8 +430,9 @@ def step(model: Model, state: State) -> State:
         # Tested on the openings at the start of the step, the time they were reached
         # (the end of the previous step): the sums are the crack-band slab's own
         # (`_p0_and_band`), and a window of the new openings cost 0.05 of a 0.25 ms step
+        opening_y = state.opening_y if dim > 1 else None
         if model.lattice:
-            plain, band = band_openings(model, state.opening)
+            plain, band = band_openings(model, state.opening, opening_y)
         else:
             plain = band_opening(model, state.opening)
         t_fracture = jnp.where(
@@ -392,10 +440,11 @@ def step(model: Model, state: State) -> State:
             state.time,
             state.t_fracture,
         )
-    eps, sigma, eps_p, d_open = constitutive(
+    eps, sigma, eps_p, d_open, d_open_y = constitutive(
         model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)), band
     )
     opening = state.opening + d_open
+    opening_y = state.opening_y if d_open_y is None else state.opening_y + d_open_y
     # rows added elementwise: XLA:CPU reduces over a short leading axis in a slow loop
     # (jnp.sum(u * u, axis=0) was 4.2 of 40 ms per 2D slope step, 300 000 particles)
     slip = jnp.sqrt(u_new[0] * u_new[0] + u_new[1] * u_new[1]) if dim > 1 else jnp.abs(u_new[0])
@@ -436,6 +485,7 @@ def step(model: Model, state: State) -> State:
         sigma=sigma,
         eps_p=eps_p,
         opening=opening,
+        opening_y=opening_y,
         t_fracture=t_fracture,
         t_broken=t_broken,
         u_max=u_max,

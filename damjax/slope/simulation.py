@@ -173,7 +173,7 @@ def _crown_and_stauchwall(
     than 2 % (thresholds on h, which depend on dx)."""
     if not model.lattice:
         return height < 0.98 * h0, height > 1.02 * h0
-    w = band_opening(model, final.opening)
+    w = band_opening(model, final.opening, opening_y=final.opening_y)
     crown = np.asarray(w >= fracture_opening(model), float)
     closure = band_opening(model, jnp.maximum(-(final.eps_p[0] + final.eps_p[1]), 0.0))
     stauch = np.asarray(closure >= FRACTURE_OPENING, float)
