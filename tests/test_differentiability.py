@@ -73,10 +73,13 @@ def test_tensile_strength_gradient_matches_central_differences():
     0.5 %) at 4500 Pa, f32 and f64 alike.
     """
     q = dataclasses.replace(PARAMS, tensile_strength=4500.0)
-    layout = pst.make_layout(q, SETUP)
-    f = jax.jit(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5))
-    g = jax.jit(jax.grad(lambda q: pst.arrest_position_smooth(q, SETUP, layout, width=0.5)))
-    r = damjax.simulate_pst(q, SETUP)
+    # the paper's perfectly plastic slab: the crack-band slab's reverse-mode gradient
+    # misses how its fractures move (calibrate_slope(gradient="fd") is for that one)
+    setup = dataclasses.replace(SETUP, slab_fracture="paper")
+    layout = pst.make_layout(q, setup)
+    f = jax.jit(lambda q: pst.arrest_position_smooth(q, setup, layout, width=0.5))
+    g = jax.jit(jax.grad(lambda q: pst.arrest_position_smooth(q, setup, layout, width=0.5)))
+    r = damjax.simulate_pst(q, setup)
     assert r.fractures == []  # no slab fracture ...
     assert float(np.max(r.opening)) > 0.0  # ... but the slab has yielded
     ad = float(g(q).tensile_strength)

@@ -17,9 +17,10 @@ posed:
   in metres (`FIELD_SPACING`), so that a seed is the same field on every dx: where a
   fracture forms is decided by the snow.
 
-``"paper"`` (the default) is the paper's perfectly plastic, homogeneous slab (the strength
-field ignored; a G_f given explicitly softens over one cell, as in earlier versions), kept
-so that its figures stay reproducible. Both models count fractures the same way
+``"crack_band"`` is the default of PSTs (`damjax.PSTSetup`); slopes (`damjax.SlopeSetup`)
+keep ``"paper"`` by default. ``"paper"`` is the paper's perfectly plastic, homogeneous slab
+(the strength field ignored; a G_f given explicitly softens over one cell, as in earlier
+versions), kept so that its figures stay reproducible. Both models count fractures the same way
 (`fractures`): a band whose opening reached `damjax.core.step.fracture_opening`.
 
 Default values (chosen from the literature, not fitted to any result):
