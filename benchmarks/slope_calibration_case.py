@@ -43,7 +43,11 @@ stopped after 16): 3206 -> 3435 -> 3629 -> 3814 -> 3974 Pa (loss 0.0088, the est
 -0.6 %) -> 4094 ... 4542 (loss 0.015-0.021): within 10 % after 17 steps in all (899 s).
 With central differences (`--slab-fracture crack_band --gradient fd`, the code of commit b4722b0,
 2026-11-25): 2500 -> 2763 -> ... -> 3955 Pa (loss 0.0085, the estimate, -1.1 %) -> 4032,
-stopped after 10 iterations, 353 s. Reverse mode at 2500 Pa gives d loss / d log sigma_t
+stopped after 10 iterations, 353 s. With the energy-consistent 2D crack-band map (commit
+e796b67; re-run at commit ad6a4df, other jobs on the machine): the reference releases
+43.3 m^2, arrest 3.39 m; 2500 -> 2763 -> 3014 -> 3233 -> 3443 -> 3656 -> 3876 Pa (loss
+0.0096, the estimate, -3.1 %) -> 4084 -> 4244 -> 4377, 10 iterations, 414 s.
+Reverse mode at 2500 Pa gives d loss / d log sigma_t
 = +3e-4 where differences give -0.064 (2 %) / -0.20 (0.5 %): it misses how the slab
 fractures move with sigma_t.
 
