@@ -90,12 +90,13 @@ def broken_mask(model: Model, state: State) -> Any:
 
 
 def constitutive(
-    model: Model, state: State, eps: Any, band: Any = None
+    model: Model, state: State, eps: Any, band: Any = None, plain: Any = None
 ) -> tuple[Any, Any, Any, Any, Any]:
     """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening, d_opening_y),
     rows (n,); d_opening_y (2D; None in 1D) is the part of d_opening along y, the opening
     increment times n_y^2 for the direction n of the largest principal plastic strain.
-    ``band``: `band_opening` of the state's openings, if already computed.
+    ``band``, ``plain``: `band_opening` of the state's openings with and without spread,
+    if already computed.
 
     1D strips get eps_yy from the lateral condition: "constrained" keeps eps_yy = 0,
     "free" keeps sigma_yy = 0 (uniaxial stress, exact uniaxial return mapping).
@@ -161,7 +162,7 @@ def constitutive(
         # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
         w_c = crack_band_opening(model)
         o, oy = state.opening, state.opening_y
-        w0 = _jump(model, o, oy)
+        w0 = _jump(model, o, oy) if plain is None else plain
 
         def increase(d: Any) -> Any:
             d_open, d_open_y = principal_opening(d)
@@ -423,7 +424,7 @@ def step(model: Model, state: State) -> State:
     C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new
     d_eps = strain_increment(C_new, dt, dim)
-    band, t_fracture = None, state.t_fracture
+    band, plain, t_fracture = None, None, state.t_fracture
     if model.plastic:  # an elastic slab never fractures
         # a band reaches the fracture opening when the largest window sum in it does: the
         # window sum alone (`band_opening` without its max) marks the band's first time.
@@ -441,7 +442,11 @@ def step(model: Model, state: State) -> State:
             state.t_fracture,
         )
     eps, sigma, eps_p, d_open, d_open_y = constitutive(
-        model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)), band
+        model,
+        state,
+        tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)),
+        band,
+        plain if model.lattice else None,
     )
     opening = state.opening + d_open
     opening_y = state.opening_y if d_open_y is None else state.opening_y + d_open_y
