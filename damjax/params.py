@@ -37,7 +37,7 @@ class SnowParams(eqx.Module):
         friction_deg: residual friction angle phi of the broken weak layer [deg].
         wl_shear_modulus: weak-layer shear modulus G_wl [Pa].
         wl_thickness: weak-layer thickness D_wl [m]; K_wl = G_wl / D_wl [Pa/m].
-        tau_peak: weak-layer peak shear strength tau_p on [0, L_ss] [Pa] (inf: unbreakable).
+        tau_peak: weak-layer peak shear strength tau_p [Pa] on [0, L_ss] (inf: unbreakable).
         steady_length: steady-state length L_ss over which tau_p is constant [m].
         strength_gradient: shear strength gradient theta beyond L_ss [Pa/m].
         softening: softening coefficient delta [-]; u_r = u_c (1 + delta); 0 is brittle.

@@ -86,6 +86,25 @@ class PSTResult:
     ``arrest_position_smooth_m`` (differentiable), ``saw_position_m``, ``tip_m`` (the
     crack tip at the end) and ``fault_code`` (0: no runtime fault; bits of
     `damjax.core.state.FAULT_MESSAGES`).
+
+    Attributes:
+        params: the `PSTParams` that were run.
+        setup: the `PSTSetup` that was run.
+        x: (n,) particle reference position along the PST [m].
+        time: (n_steps,) time after each step [s].
+        tip: (n_steps,) crack tip position after each step [m].
+        sigma_xx: (n,) final slab tension sigma_xx [Pa].
+        height: (n,) final column height h [m].
+        slip: (n,) final slope-parallel displacement [m].
+        u_max: (n,) maximum slip reached [m].
+        tau_peak: (n,) weak-layer peak shear strength tau_p [Pa].
+        opening: (n,) accumulated tensile plastic strain of the slab [-].
+        wl_shear: (n,) final weak-layer shear stress magnitude [Pa].
+        snapshots: fields at the end of every chunk (``time`` [s], ``sigma_xx`` [Pa], ...).
+        summary: diagnostics by name, units in the key (``arrest_position_m``,
+            ``max_crack_speed_over_cs``, ``wall_time_s``, ...).
+        fault: runtime fault (one line), None if the run was clean.
+        fractures: slab fractures, each ``{"x_m": position [m], ...}``.
     """
 
     params: PSTParams
@@ -116,6 +135,7 @@ class PSTResult:
 
     @property
     def arrested(self) -> bool:
+        """Whether the crack stopped inside the PST (event-based; concrete runs only)."""
         return bool(self._event("arrested"))
 
     @property
@@ -189,8 +209,9 @@ def simulate_pst(
         setup: numerics (default: 100 m, dx = 0.02 m, 3 s, free lateral condition).
         progress: show a tqdm progress bar (concrete parameters only).
         layout: static layout (`make_layout`); default: made from the parameters.
-        state, start_chunk, history: resume from a saved state after ``start_chunk``
-            chunks, with the per-chunk tip arrays and snapshots recorded before it.
+        state: resume from this saved state (with ``start_chunk`` and ``history``).
+        start_chunk: number of chunks run before ``state``.
+        history: the per-chunk tip arrays and snapshots recorded before ``state``.
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk
             (checkpointing; see `damjax.core.loop.integrate`).
     """

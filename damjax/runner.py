@@ -64,6 +64,7 @@ class RunOutcome:
 
     @property
     def fault(self) -> str | None:
+        """The runtime fault of the run (one line), None if it ran clean."""
         return getattr(self.result, "fault", None) or self.summary.get("fault")
 
 

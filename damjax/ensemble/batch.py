@@ -224,6 +224,7 @@ class Plan:
     chosen: str  # "memory", "given" or "stored"
 
     def slices(self, members: int) -> list[tuple[int, int]]:
+        """Member ranges ``(start, stop)`` of ``slice_size`` members covering ``members``."""
         s = self.slice_size
         return [(a, min(a + s, members)) for a in range(0, members, s)]
 

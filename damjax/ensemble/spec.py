@@ -62,6 +62,7 @@ class Distribution:
         return float(d.ppf(a + u * (b - a)))
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[ensemble.params.NAME]`` table of this distribution (TOML-ready)."""
         out = {k: v for k, v in dataclasses.asdict(self).items() if v is not None}
         if self.bounds is not None:
             out["bounds"] = list(self.bounds)

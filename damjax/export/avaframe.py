@@ -54,7 +54,9 @@ def export_avaframe(
         run: a slope run folder (``results.nc``), an ensemble folder or either file.
         avadir: the avalanche directory (created; its ``Inputs/`` DEM and ``Inputs/REL``
             shapefiles are replaced).
-        scenario, dem, crs: as for `damjax.export.gis.frame_of`.
+        scenario: as for `damjax.export.gis.frame_of`.
+        dem: as for `damjax.export.gis.frame_of`.
+        crs: as for `damjax.export.gis.frame_of`.
         threshold: an ensemble's zones are where release_probability >= threshold.
         min_cells: zones of fewer cells are left out.
         name: the release scenario's name (the shapefile stem; default the run's

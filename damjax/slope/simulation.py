@@ -57,7 +57,23 @@ def _snapshot(model: Model, state: State) -> dict[str, Any]:
 @dataclasses.dataclass
 class SlopeResult:
     """Maps on the cell grid (nx, ny) of the release area, and summary numbers; a pytree,
-    so `jax.vmap` of `simulate_slope` returns one batched result."""
+    so `jax.vmap` of `simulate_slope` returns one batched result.
+
+    Attributes:
+        x: (nx,) cell centres up-slope along the surface [m].
+        y: (ny,) cell centres across the slope [m].
+        height: (nx, ny) final slab column height h [m].
+        arrival_time: (nx, ny) weak-layer failure time [s] (inf: intact).
+        tension: (nx, ny) final slab tension sigma_xx [Pa].
+        opening: (nx, ny) accumulated tensile plastic strain of the slab [-].
+        tau_peak: (nx, ny) weak-layer peak shear strength tau_p [Pa].
+        slope_deg: (nx, ny) local slope angle psi [deg].
+        snapshots: per chunk: ``time`` [s], the height map [m] and the broken map (0/1).
+        summary: diagnostics by name, units in the key (``release_area_m2``,
+            ``upslope_arrest_distance_m``, ``wall_time_s``, ...).
+        setup: the `SlopeSetup` that was run.
+        params: the `PSTParams` that were run.
+    """
 
     x: np.ndarray  # (nx,) cell centres up-slope [m]
     y: np.ndarray  # (ny,) cell centres across [m]
@@ -294,8 +310,9 @@ def simulate_slope(
             Gaussian random field from `damjax.fields`).
         fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
         progress: tqdm progress bar.
-        state, start_chunk, history: resume from a saved state after ``start_chunk``
-            chunks, with the per-chunk tip arrays and snapshots recorded before it (as
+        state: resume from this saved state (with ``start_chunk`` and ``history``).
+        start_chunk: number of chunks run before ``state``.
+        history: the per-chunk tip arrays and snapshots recorded before ``state`` (as
             `damjax.simulate_pst`).
         layout: static layout (`damjax.core.model.make_slope_layout`); default: made
             from the inputs.

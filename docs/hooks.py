@@ -1,0 +1,301 @@
+"""mkdocs hooks (``hooks:`` in mkdocs.yml): pages generated from the code, and a docstring
+check, so that the reference cannot drift from the code.
+
+- ``api/cli.md``: every subcommand's ``--help`` from `damjax.cli.build_parser`;
+- ``api/scenario-keys.md``: the scenario-file keys with their kind, valid range, default
+  and description, from `damjax.scenario.schema` (and the slope and ensemble tables);
+- a public function or class (``damjax.__all__`` and the ``__all__`` of the public
+  modules, their public methods included) without a docstring stops the build.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+import io
+import os
+import re
+import types
+from contextlib import redirect_stdout
+from typing import Any
+
+from mkdocs.exceptions import PluginError
+from mkdocs.structure.files import File
+
+# modules whose names are public besides damjax.__all__; a module without __all__ exposes
+# the functions and classes it defines whose names do not start with "_"
+PUBLIC_MODULES = (
+    "damjax.ensemble",
+    "damjax.calibrate",
+    "damjax.export",
+    "damjax.export.gis",
+    "damjax.export.avaframe",
+    "damjax.snow_profiles",
+    "damjax.distributed",
+    "damjax.scenario",
+)
+
+
+# --------------------------------------------------------------------------- docstrings
+
+
+def _public_names(mod: types.ModuleType) -> list[str]:
+    names = getattr(mod, "__all__", None)
+    if names is not None:
+        return list(names)
+    return [
+        n
+        for n, o in vars(mod).items()
+        if not n.startswith("_")
+        and (inspect.isfunction(o) or inspect.isclass(o))
+        and getattr(o, "__module__", "") == mod.__name__
+    ]
+
+
+def _member(mod: types.ModuleType, name: str) -> Any:
+    if hasattr(mod, name):
+        return getattr(mod, name)
+    return importlib.import_module(f"{mod.__name__}.{name}")  # a submodule in __all__
+
+
+def missing_docstrings() -> list[str]:
+    """Public functions, classes, their public methods and modules without a docstring."""
+    import damjax
+
+    modules = [damjax] + [importlib.import_module(m) for m in PUBLIC_MODULES]
+    modules += [o for o in (getattr(damjax, n) for n in damjax.__all__) if inspect.ismodule(o)]
+    missing, seen = [], set()
+    for mod in modules:
+        if mod.__name__ in seen:
+            continue
+        seen.add(mod.__name__)
+        if not (mod.__doc__ or "").strip():
+            missing.append(f"module {mod.__name__}")
+        for name in _public_names(mod):
+            obj = _member(mod, name)
+            where = f"{mod.__name__}.{name}"
+            if inspect.ismodule(obj):
+                if not (obj.__doc__ or "").strip():
+                    missing.append(f"module {where}")
+                continue
+            if not (inspect.isfunction(obj) or inspect.isclass(obj)):
+                continue  # constants
+            if not (obj.__doc__ or "").strip():
+                missing.append(where)
+            if inspect.isclass(obj):
+                for k, v in vars(obj).items():
+                    fn = v.fget if isinstance(v, property) else v
+                    if k.startswith("_") or not (inspect.isfunction(fn)):
+                        continue
+                    if not (fn.__doc__ or "").strip():
+                        missing.append(f"{where}.{k}")
+    return sorted(set(missing))
+
+
+def on_pre_build(config: Any) -> None:
+    missing = missing_docstrings()
+    if missing:
+        raise PluginError(
+            f"{len(missing)} public name(s) without a docstring (docs/hooks.py): "
+            + ", ".join(missing)
+        )
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def cli_page() -> str:
+    from damjax import cli
+
+    old = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "88"  # argparse wraps at the terminal width: fix it
+    try:
+        parser = cli.build_parser()
+        parser.prog = "damjax"
+        sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+        out = [
+            "# Command line",
+            "",
+            "Generated at build time from the argument parser (`damjax.cli.build_parser`), "
+            "so it is what `damjax CMD --help` prints for the installed version.",
+            "",
+            "Exit status: 0 done, 2 bad input (one line per problem), 3 runtime fault "
+            "(results written up to it), 130 interrupted.",
+            "",
+            "```text",
+            parser.format_help().rstrip(),
+            "```",
+            "",
+        ]
+        for name, p in sub.choices.items():
+            p.prog = f"damjax {name}"
+            out += [f"## `damjax {name}`", "", "```text", p.format_help().rstrip(), "```", ""]
+        return "\n".join(out)
+    finally:
+        if old is None:
+            os.environ.pop("COLUMNS", None)
+        else:
+            os.environ["COLUMNS"] = old
+
+
+# --------------------------------------------------------------------------- scenario keys
+
+
+def _attributes(cls: type) -> dict[str, str]:
+    """``name: text`` entries of a Google-style ``Attributes:`` section, one line each."""
+    doc = inspect.getdoc(cls) or ""
+    m = re.search(r"^Attributes:\n(.*?)(?:\n\S|\Z)", doc, flags=re.S | re.M)
+    out: dict[str, str] = {}
+    if not m:
+        return out
+    current = None
+    for line in m.group(1).splitlines():
+        hit = re.match(r"^    (\w+): (.*)$", line)
+        if hit:
+            current = hit.group(1)
+            out[current] = hit.group(2).strip()
+        elif current and line.strip():
+            out[current] += " " + line.strip()
+    return out
+
+
+def _cell(text: Any) -> str:
+    return str(text).replace("|", "\\|").replace("[", "\\[").replace("\n", " ")
+
+
+def _default(f: dataclasses.Field) -> str:
+    if f.default is not dataclasses.MISSING:
+        v = f.default
+    elif f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
+        v = f.default_factory()  # type: ignore[misc]
+    else:
+        return "required"
+    return f"`{v!r}`" if v is not None else "`None`"
+
+
+def _dataclass_table(section: str, cls: type, describe: type | None = None) -> list[str]:
+    from damjax.scenario import schema
+
+    desc = _attributes(describe or cls)
+    rows = ["| key | TOML value | default | meaning |", "|---|---|---|---|"]
+    for f in dataclasses.fields(cls):
+        kind = schema._kind_of(cls, f)
+        valid = schema._valid_text(section, f.name, kind).removeprefix("must be ")
+        if section == "setup" and f.name in schema._CHOICES:
+            valid = "one of " + ", ".join(f'`"{c}"`' for c in schema._CHOICES[f.name])
+        rows.append(
+            f"| `{f.name}` | {_cell(valid)} | {_default(f)} | {_cell(desc.get(f.name, ''))} |"
+        )
+    return rows
+
+
+def _unit_table(table: dict[str, tuple[str, Any, str]]) -> list[str]:
+    rows = ["| key | kind | valid | unit |", "|---|---|---|---|"]
+    for key, (kind, check, unit) in table.items():
+        if check is None:
+            valid = ""
+        elif isinstance(check, tuple) and len(check) == 2 and callable(check[0]):
+            valid = check[1]
+        else:
+            valid = "one of " + ", ".join(f'`"{c}"`' for c in check)
+        rows.append(f"| `{key}` | {kind} | {_cell(valid)} | {unit} |")
+    return rows
+
+
+def scenario_keys_page() -> str:
+    from damjax import ensemble
+    from damjax.params import PSTParams, PSTSetup, SlopeSetup
+    from damjax.scenario import schema
+    from damjax.scenario import slope as sslope
+
+    out = [
+        "# Scenario-file keys",
+        "",
+        "Generated at build time from the validation tables of `damjax.scenario` (the "
+        "checks the loader runs), so every key, range and default here is the one the "
+        "code accepts. SI units throughout, angles in degrees. A worked introduction is "
+        "[Scenario files](../guide/scenarios.md).",
+        "",
+        "## Top level",
+        "",
+        "Tables and keys: " + ", ".join(f"`{k}`" for k in schema.TOP_KEYS) + ". `type` is "
+        "one of " + ", ".join(f'`"{t}"`' for t in schema.SCENARIO_TYPES) + "; `name` "
+        "matches `[A-Za-z0-9][A-Za-z0-9._-]*` and names the output folder.",
+        "",
+        "## `[params]` (`damjax.PSTParams`, PST and slope)",
+        "",
+        "On slopes, " + ", ".join(f"`{k}`" for k in sslope.PST_ONLY_PARAMS) + " have no "
+        "meaning (the `[strength]` table sets the weak layer).",
+        "",
+        *_dataclass_table("params", PSTParams),
+        "",
+        '## `[setup]` of `type = "pst"` (`damjax.PSTSetup`)',
+        "",
+        *_dataclass_table("setup", PSTSetup),
+        "",
+        '## `[setup]` of `type = "slope"` (`damjax.SlopeSetup`)',
+        "",
+        *_dataclass_table("setup", SlopeSetup),
+        "",
+        "## `[output]`",
+        "",
+        *_dataclass_table("output", schema.Output),
+        "",
+        '## `[strength]` and `[profile]` of `type = "pst"`',
+        "",
+        "`[strength]` keys: " + ", ".join(f"`{k}`" for k in schema.STRENGTH_KEYS) + "; "
+        "`[profile]` keys: " + ", ".join(f"`{k}`" for k in schema.PROFILE_KEYS) + ". Their "
+        "meaning is in the format description of `damjax.scenario.schema` "
+        "([API](scenario.md)).",
+        "",
+        '## `[terrain]` of `type = "slope"`',
+        "",
+        "`kind` is one of " + ", ".join(f'`"{k}"`' for k in sslope.TERRAIN_KINDS) + ".",
+        "",
+    ]
+    for kind, table in sslope._TERRAIN_KEYS.items():
+        out += [f'### `kind = "{kind}"`', "", *_unit_table(table), ""]
+    out += [
+        '## `[strength]` of `type = "slope"`',
+        "",
+        "`kind` is one of " + ", ".join(f'`"{k}"`' for k in sslope.STRENGTH_KINDS) + "; "
+        "every kind also takes:",
+        "",
+        *_unit_table(sslope._STRENGTH_COMMON),
+        "",
+    ]
+    for kind, table in sslope._STRENGTH_KEYS.items():
+        out += [f'### `kind = "{kind}"`', "", *_unit_table(table), ""]
+    out += [
+        "## `[ensemble]` (slope scenarios, `damjax ensemble`)",
+        "",
+        "Keys: " + ", ".join(f"`{k}`" for k in ensemble.ENSEMBLE_KEYS) + ". A drawn "
+        "parameter `[ensemble.params.NAME]` (any scalar `[params]` field) or strength "
+        "number `[ensemble.strength.NAME]` has `dist` = "
+        + ", ".join(f'`"{d}"`' for d in ensemble.DISTRIBUTIONS)
+        + " (normal, lognormal: `mean`, `std`; uniform: `low`, `high`; optional `bounds`). "
+        "Strength numbers that can be drawn, per `[strength] kind`: "
+        + "; ".join(
+            f"{k}: " + (", ".join(f"`{n}`" for n in v) if v else "none")
+            for k, v in ensemble.STRENGTH_DRAWS.items()
+        )
+        + ".",
+        "",
+    ]
+    return "\n".join(out)
+
+
+# --------------------------------------------------------------------------- files
+
+
+GENERATED = {"api/cli.md": cli_page, "api/scenario-keys.md": scenario_keys_page}
+
+
+def on_files(files: Any, config: Any) -> Any:
+    for uri, make in GENERATED.items():
+        buf = io.StringIO()
+        with redirect_stdout(buf):
+            content = make()
+        files.append(File.generated(config, uri, content=content))
+    return files
