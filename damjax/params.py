@@ -134,10 +134,10 @@ class PSTSetup:
             the 3D von Mises q of the plane-stress tensor, sigma_zz = 0; the default) or
             "plane" (invariants of the 2D in-plane tensor). See `damjax.materials.mcc`.
         slab_fracture: slab tensile fracture model (`damjax.materials.slab_fracture`), for
-            a finite tensile strength: "crack_band" (the default: fracture energy G_f and
-            a seeded random tensile-strength field, so fractures converge with dx) or
-            "paper" (the paper's homogeneous, perfectly plastic slab, to reproduce its
-            figures). Both count fractures from band openings.
+            a finite tensile strength: "paper" (the default: the paper's homogeneous,
+            perfectly plastic slab, whose arrests reproduce the paper's and converge with
+            dx) or "crack_band" (an alternative with a fracture energy G_f and a seeded
+            random tensile-strength field; its measured status is in docs/model/slab.md).
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band";
             the same field on every dx).
     """
@@ -155,7 +155,7 @@ class PSTSetup:
     width: float = 0.3
     p0_rule: str = "paper"
     mcc_invariants: str = "3d"
-    slab_fracture: str = "crack_band"
+    slab_fracture: str = "paper"
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -191,10 +191,9 @@ class SlopeSetup:
         chunk_steps: steps per jitted chunk (one snapshot per chunk).
         p0_rule: MCC p0 rule (see `PSTSetup`).
         mcc_invariants: MCC stress invariants, "3d" or "plane" (see `PSTSetup`).
-        slab_fracture: slab fracture model, "paper" (the default here: a 30 m x 8 m
-            slope on dx 0.125 m runs 1.4-1.7 x longer with "crack_band") or "crack_band"
-            (the default of `PSTSetup`, see there; the strength field is drawn over
-            length x width).
+        slab_fracture: slab fracture model, "paper" (the default, as for `PSTSetup`) or
+            "crack_band" (see `PSTSetup`; the strength field is drawn over length x width;
+            a 30 m x 8 m slope on dx 0.125 m runs 1.4-1.7 x longer with it).
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band").
     """
 
