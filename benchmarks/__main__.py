@@ -3,6 +3,7 @@
     python -m benchmarks                 # every case
     python -m benchmarks pst_f32 mpm88   # some cases
     python -m benchmarks --list
+    python -m benchmarks gpu [--dry-run] # the prepared GPU check (benchmarks/gpu.py)
 
 Each case prints one JSON object per line on stdout.
 """
@@ -14,11 +15,17 @@ import sys
 
 from benchmarks.cases import CASES
 
+# commands with options of their own (not cases): name -> module run as ``python -m``
+COMMANDS = {"gpu": "benchmarks.gpu"}
+
 
 def main(argv: list[str]) -> int:
+    if argv and argv[0] in COMMANDS:
+        return subprocess.run([sys.executable, "-m", COMMANDS[argv[0]], *argv[1:]]).returncode
     if "--list" in argv:
         for name, fn in CASES.items():
             print(f"{name:16s} {(fn.__doc__ or '').strip().splitlines()[0]}")
+        print(f"{'gpu':16s} GPU tests and figures in one command (python -m benchmarks gpu -h)")
         return 0
     names = argv or list(CASES)
     unknown = [n for n in names if n not in CASES]

@@ -1,0 +1,629 @@
+"""One prepared command for a GPU (or any device): the GPU-relevant tests and figures.
+
+    python -m benchmarks gpu                    # everything (about 8 min on one H100/H200)
+    python -m benchmarks gpu --dry-run          # every part at toy size (CI; any device)
+    python -m benchmarks gpu --no-tests         # the figures only
+    python -m benchmarks gpu --parts pst_f32,repeat --timeout 300
+
+Every part runs in its own process (a crash, an out-of-memory or a hang of one part is
+reported and the rest still run) and prints JSON lines on stdout, each with ``part``,
+``device``, ``platform``, ``jax``, ``jaxlib``, ``date`` and ``commit``; a part that fails
+prints one line with ``error``. The parts:
+
+- ``environment``: the device, versions, XLA flags, and whether the setups have the
+  ``accumulation`` option (deterministic fixed-point particle-to-grid sums);
+- ``pst_f32``: the full baseline PST (100 m, dx 0.02 m, 3 s, float32), `cases._pst_row`;
+- ``slope``: the paper's Fig. 12a slope (75 000 particles, 2 s), `cases.slope_row`;
+- ``slope_1m``: the same slope at dx 0.05 m (1.2 M particles): cost per particle-step;
+- ``repeat``: two baseline PSTs in one process: bitwise equal? max |slip difference|;
+- ``pst_grad``: gradient / forward time of the baseline PST (`cases.pst_grad`);
+- ``gradient_check``: `damjax.gradient_check` of the 20 m PST (softening 0 and 0.3) for
+  four fields: all AD values finite, and AD within 10 % of the event-based slope;
+- ``accumulation``: "fixed" against "float" on pst_f32 and the slope (time ratio), where
+  the option exists;
+- ``ensemble16``: 16 Fig. 12a members as one ensemble against 16 sequential runs
+  (`benchmarks.ensemble16`'s parts);
+- ``tests``: pytest on the GPU-relevant test files (``-x -q``, several workers with
+  ``XLA_PYTHON_CLIENT_PREALLOCATE=false``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import datetime
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+TEST_FILES = tuple(
+    f"tests/test_{name}.py"
+    for name in (
+        "pst_physics",
+        "slope",
+        "jax_native",
+        "runner",
+        "ensemble",
+        "differentiability",
+        "sensitivity",
+        "weak_layer",
+        "slab_length_scale",
+        "slab_fracture",
+        "mcc",
+    )
+)
+# --dry-run: a few fast tests of the same files (seconds on 2 CPU cores)
+DRY_TESTS = (
+    "tests/test_pst_physics.py::test_paired_complex_transfers_equal_the_real_ones",
+    "tests/test_mcc.py::test_infinite_tensile_strength_is_exactly_elastic",
+    "tests/test_ensemble.py::test_share_is_round_robin",
+)
+GRADIENT_FIELDS = ("strength_gradient", "youngs_modulus", "wl_shear_modulus", "tau_peak")
+
+
+# ------------------------------------------------------------------ sizes
+
+
+@dataclasses.dataclass(frozen=True)
+class Sizes:
+    """What each part runs: the full figures, or toy sizes for --dry-run."""
+
+    dry: bool
+
+    def pst(self):  # noqa: ANN201 - damjax.PSTSetup
+        from damjax import PSTSetup
+
+        if self.dry:
+            return PSTSetup(length=8.0, dx=0.1, duration=0.05, chunk_steps=50)
+        return PSTSetup()  # 100 m, dx 0.02 m, 3 s: 40 000 steps
+
+    def pst_params(self):  # noqa: ANN201 - damjax.PSTParams
+        from damjax import PSTParams
+
+        # the baseline (L_ss 20 m) needs more than the toy's 8 m
+        return PSTParams(steady_length=3.0) if self.dry else PSTParams()
+
+    def slope(self, dx: float | None = None):  # noqa: ANN201 - GenericSlopeCase
+        from damjax.slope.generic import GenericSlopeCase
+
+        if self.dry:
+            return GenericSlopeCase(
+                length=8.0,
+                width=6.0,
+                dx=0.3,
+                duration=0.05,
+                toe_length=2.0,
+                roll_length=2.0,
+                grf_length=2.0,
+                start_window=(1.0, 3.0),
+                particles_per_cell=1,
+                chunk_steps=25,
+            )
+        if dx is None:
+            # the timing case of `cases.slope`: 75 000 particles, 2 s (2 800 steps)
+            return GenericSlopeCase(particles_per_cell=1, duration=2.0)
+        # 1.2 M particles at dx 0.05 m; 0.5 s is enough for a steady cost per step
+        return GenericSlopeCase(particles_per_cell=1, dx=dx, duration=0.5)
+
+    def grad_duration(self) -> float:
+        return 0.01 if self.dry else 3.0
+
+    def gradient_case(self) -> tuple:
+        """The 20 m PST of tests/test_sensitivity and the GPU NaN probe."""
+        from damjax import PSTParams, PSTSetup
+
+        if self.dry:
+            setup = PSTSetup(length=6.0, dx=0.1, duration=0.4)
+            return setup, PSTParams(steady_length=2.0, strength_gradient=3000.0), 3
+        setup = PSTSetup(length=20.0, dx=0.05, duration=0.8)
+        return setup, PSTParams(steady_length=5.0, strength_gradient=600.0), 11
+
+    def ensemble(self) -> tuple[int, float]:
+        return (2, 0.01) if self.dry else (16, 2.0)
+
+
+# ------------------------------------------------------------------ parts (child side)
+
+
+def _emit(**row: object) -> None:
+    from benchmarks.cases import emit
+
+    emit(**row)
+
+
+def _accumulation_field() -> bool:
+    """Whether this checkout's setups have the deterministic ``accumulation`` option."""
+    from damjax import PSTSetup
+
+    return "accumulation" in {f.name for f in dataclasses.fields(PSTSetup)}
+
+
+@contextlib.contextmanager
+def _slope_accumulation(mode: str | None) -> Iterator[None]:
+    """Runs of `run_generic_slope` with ``SlopeSetup.accumulation = mode`` (None: default).
+    `GenericSlopeCase` does not carry the option, so its `setup_of` is wrapped."""
+    if mode is None:
+        yield
+        return
+    from damjax.slope import generic
+
+    original = generic.setup_of
+
+    def setup_of(case, start):  # noqa: ANN001, ANN202 - the wrapped signature
+        return dataclasses.replace(original(case, start), accumulation=mode)
+
+    generic.setup_of = setup_of
+    try:
+        yield
+    finally:
+        generic.setup_of = original
+
+
+def part_environment(sizes: Sizes) -> None:
+    import jax
+
+    dev = jax.devices()[0]
+    _emit(
+        case="environment",
+        devices=[str(d) for d in jax.devices()],
+        device_kind=getattr(dev, "device_kind", None),
+        n_devices=len(jax.devices()),
+        default_backend=jax.default_backend(),
+        xla_flags=os.environ.get("XLA_FLAGS", ""),
+        preallocate=os.environ.get("XLA_PYTHON_CLIENT_PREALLOCATE"),
+        python=sys.version.split()[0],
+        accumulation_option=_accumulation_field(),
+        dry_run=sizes.dry,
+    )
+
+
+def part_pst_f32(sizes: Sizes) -> None:
+    from benchmarks.cases import _pst_row
+
+    row = _pst_row("pst_f32", sizes.pst_params(), sizes.pst())
+    row["us_per_step"] = round(1e6 * row["wall_time_s"] / row["n_steps"], 2)
+    _emit(**row)
+
+
+def _slope_row(name: str, case, mode: str | None = None) -> dict:  # noqa: ANN001
+    from benchmarks.cases import slope_row
+
+    with _slope_accumulation(mode):
+        row = slope_row(name, case)
+    row["ns_per_particle_step"] = round(1e9 / row["particle_steps_per_s"], 3)
+    return row
+
+
+def part_slope(sizes: Sizes) -> None:
+    _emit(**_slope_row("slope", sizes.slope()))
+
+
+def part_slope_1m(sizes: Sizes) -> None:
+    _emit(**_slope_row("slope_1m", sizes.slope(dx=0.05)))
+
+
+def part_repeat(sizes: Sizes) -> None:
+    import numpy as np
+
+    from damjax import simulate_pst
+
+    setup, params = sizes.pst(), sizes.pst_params()
+    a, b = simulate_pst(params, setup), simulate_pst(params, setup)
+    diffs = {
+        k: float(np.max(np.abs(np.asarray(getattr(a, k)) - np.asarray(getattr(b, k)))))
+        for k in ("slip", "sigma_xx", "tip")
+    }
+    _emit(
+        case="repeat",
+        n_particles=a.summary["n_particles"],
+        n_steps=a.summary["n_steps"],
+        dtype=setup.dtype,
+        accumulation=getattr(setup, "accumulation", None),
+        bitwise_equal=all(
+            np.array_equal(np.asarray(getattr(a, k)), np.asarray(getattr(b, k)))
+            for k in ("slip", "sigma_xx", "tip")
+        ),
+        max_abs_diff=diffs,
+        arrest_position_m=[a.summary["arrest_position_m"], b.summary["arrest_position_m"]],
+        wall_time_s=[a.summary["wall_time_s"], b.summary["wall_time_s"]],
+    )
+
+
+def part_pst_grad(sizes: Sizes) -> None:
+    from benchmarks import cases
+
+    os.environ["DAMJAX_BENCH_DURATION"] = str(sizes.grad_duration())
+    cases.pst_grad()
+
+
+def part_gradient_check(sizes: Sizes) -> None:
+    import math
+
+    from damjax import gradient_check
+
+    setup, base, n_runs = sizes.gradient_case()
+    for softening in (0.0, 0.3):
+        params = dataclasses.replace(base, softening=softening)
+        t0 = time.perf_counter()
+        checks = gradient_check(params, setup, list(GRADIENT_FIELDS), tolerance=0.10, n_runs=n_runs)
+        wall = time.perf_counter() - t0
+        for c in checks:
+            ad = [float(v) for v in c.ad_values]
+            _emit(
+                case="gradient_check",
+                field=c.field,
+                softening=softening,
+                length=setup.length,
+                dx=setup.dx,
+                duration=setup.duration,
+                n_runs=len(ad),
+                all_finite=all(math.isfinite(v) for v in ad),
+                n_nonfinite=sum(not math.isfinite(v) for v in ad),
+                ad_mean=c.ad_mean,
+                event_slope=c.event_slope,
+                relative_error=c.relative_error,
+                within_10_percent=bool(c.ok),
+                ad_values=ad,
+                arrests_m=[float(v) for v in c.arrests],
+                wall_time_s_all_fields=round(wall, 2),
+            )
+
+
+def part_accumulation(sizes: Sizes) -> None:
+    import jax
+
+    from benchmarks.cases import _pst_row
+
+    if not _accumulation_field():
+        _emit(case="accumulation", skipped="PSTSetup has no 'accumulation' option here")
+        return
+    for name in ("pst_f32", "slope"):
+        rows = {}
+        for mode in ("fixed", "float"):
+            if name == "pst_f32":
+                setup = dataclasses.replace(sizes.pst(), accumulation=mode)
+                rows[mode] = _pst_row(name, sizes.pst_params(), setup)
+            else:
+                rows[mode] = _slope_row(name, sizes.slope(), mode)
+            jax.clear_caches()
+        fixed, flt = rows["fixed"], rows["float"]
+        _emit(
+            case=f"accumulation_{name}",
+            n_particles=fixed["n_particles"],
+            n_steps=fixed["n_steps"],
+            wall_time_s={"fixed": fixed["wall_time_s"], "float": flt["wall_time_s"]},
+            compile_time_s={"fixed": fixed["compile_time_s"], "float": flt["compile_time_s"]},
+            fixed_over_float=round(fixed["wall_time_s"] / flt["wall_time_s"], 3),
+        )
+
+
+def toy_ensemble(members: int, duration: float):  # noqa: ANN201 - damjax.ensemble.Ensemble
+    """`benchmarks.ensemble16._ensemble` on a 24 m x 6 m strip of its slope (--dry-run)."""
+    import warnings
+
+    from benchmarks import ensemble16
+    from damjax import ensemble, scenario
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scn = scenario.load(ensemble16.SCENARIO).replace(
+            setup={"duration": duration, "length": 24.0, "width": 6.0, "dx": 0.25},
+            output={"plot": False, "snapshots": False},
+        )
+    return ensemble.from_scenario(scn, {"seeds": list(range(members))}, members=members)
+
+
+def part_ensemble16(sizes: Sizes) -> None:
+    """`benchmarks.ensemble16`'s sequential and ensemble parts (the two-process part is a
+    CPU question), each in its own process as there; the ratio as `ensemble16.rows`."""
+    members, duration = sizes.ensemble()
+    # --dry-run: the same parts on a small strip of the slope
+    code = "import sys, benchmarks.ensemble16 as e; "
+    if sizes.dry:
+        code += "import benchmarks.gpu as g; e._ensemble = g.toy_ensemble; "
+    code += "sys.exit(e.main(sys.argv[1:]))"
+    out = []
+    with tempfile.TemporaryDirectory(prefix="ensemble16-") as tmp:
+        for part in ("sequential", "ensemble"):
+            args = ["--part", part, "--members", str(members), "--duration", str(duration)]
+            cmd = [sys.executable, "-c", code, *args, "--dir", tmp]
+            res = subprocess.run(cmd, stdout=subprocess.PIPE, check=True, cwd=ROOT)
+            out.append(json.loads(res.stdout.decode().strip().splitlines()[-1]))
+    seq, ens = out
+    ens["peer"] = f"{members} sequential simulate_slope"
+    ens["peer_wall_time_s"] = seq["wall_time_s"]
+    ens["ratio"] = round(seq["wall_time_s"] / ens["wall_time_s"], 3)
+    ens["ratio_end_to_end"] = round(seq["end_to_end_s"] / ens["end_to_end_s"], 3)
+    for row in out:
+        _emit(**row)
+
+
+PARTS: dict[str, Callable[[Sizes], None]] = {
+    "environment": part_environment,
+    "pst_f32": part_pst_f32,
+    "slope": part_slope,
+    "repeat": part_repeat,
+    "pst_grad": part_pst_grad,
+    "gradient_check": part_gradient_check,
+    "accumulation": part_accumulation,
+    "ensemble16": part_ensemble16,
+    "slope_1m": part_slope_1m,
+    "tests": None,  # type: ignore[dict-item] # runs pytest from the parent (see _run_tests)
+}
+# the longest a part may take in the full run [s] (the tests get what is left)
+PART_TIMEOUT = {"ensemble16": 150.0, "slope_1m": 120.0, "gradient_check": 120.0}
+
+
+# ------------------------------------------------------------------ parent side
+
+
+def _meta_fallback() -> dict:
+    """What is known without starting JAX (for the error line of a failed part)."""
+    from importlib import metadata
+
+    def version(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return dict(device=None, platform=None, jax=version("jax"), jaxlib=version("jaxlib"))
+
+
+def _git_commit() -> str | None:
+    try:
+        res = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+        return res.stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def _child_meta() -> dict:
+    import jax
+    import jaxlib
+
+    dev = jax.devices()[0]
+    return dict(
+        device=str(dev),
+        platform=dev.platform,
+        jax=jax.__version__,
+        jaxlib=jaxlib.__version__,
+    )
+
+
+def _child(name: str, dry: bool) -> int:
+    """Run one part in this process; its JSON rows on stdout, the metadata first."""
+    print("GPU-META " + json.dumps(_child_meta()), flush=True)
+    PARTS[name](Sizes(dry=dry))
+    return 0
+
+
+def _child_env(dry: bool) -> dict:
+    env = dict(os.environ)
+    path = [str(ROOT), *filter(None, [env.get("PYTHONPATH")])]
+    env["PYTHONPATH"] = os.pathsep.join(path)
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    return env
+
+
+def _run_child(name: str, dry: bool, timeout: float) -> tuple[list[dict], dict, str | None]:
+    """The rows a part printed, its metadata, and an error (None: it succeeded)."""
+    cmd = [sys.executable, "-m", "benchmarks.gpu", "--run-part", name]
+    if dry:
+        cmd.append("--dry-run")
+    try:
+        res = subprocess.run(
+            cmd,
+            cwd=ROOT,
+            env=_child_env(dry),
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+        stdout, stderr, rc = res.stdout, res.stderr, res.returncode
+    except subprocess.TimeoutExpired as exc:
+        stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else exc.stdout or ""
+        stderr = exc.stderr.decode() if isinstance(exc.stderr, bytes) else exc.stderr or ""
+        rc = None
+    rows, meta = [], {}
+    for line in stdout.splitlines():
+        if line.startswith("GPU-META "):
+            meta = json.loads(line[len("GPU-META ") :])
+            continue
+        try:
+            row = json.loads(line)
+        except ValueError:
+            sys.stderr.write(line + "\n")
+            continue
+        if isinstance(row, dict):
+            rows.append(row)
+    if rc is None:
+        return rows, meta, f"timed out after {timeout:.0f} s; stderr: {stderr[-1500:]}"
+    if rc != 0:
+        return rows, meta, f"exit status {rc}; stderr: {stderr[-1500:]}"
+    return rows, meta, None
+
+
+def _run_tests(dry: bool, workers: int, timeout: float) -> dict:
+    """pytest on the GPU-relevant files (several workers share one GPU: no preallocation)."""
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider"]
+    if dry:
+        cmd += ["-p", "no:xdist", *DRY_TESTS]
+    else:
+        if workers > 1:
+            cmd += ["-n", str(workers)]
+        cmd += list(TEST_FILES)
+    env = _child_env(dry)
+    env["XLA_PYTHON_CLIENT_PREALLOCATE"] = "false"
+    t0 = time.perf_counter()
+    try:
+        res = subprocess.run(
+            cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout
+        )
+        out, rc = res.stdout + res.stderr, res.returncode
+    except subprocess.TimeoutExpired as exc:
+        out = exc.stdout.decode() if isinstance(exc.stdout, bytes) else exc.stdout or ""
+        rc = None
+    wall = time.perf_counter() - t0
+    counts = {
+        k: int(n) for n, k in re.findall(r"(\d+) (passed|failed|skipped|error|errors|xfailed)", out)
+    }
+    row = dict(
+        case="tests",
+        command=" ".join(cmd[1:]),
+        returncode=rc,
+        passed=counts.get("passed", 0),
+        failed=counts.get("failed", 0),
+        skipped=counts.get("skipped", 0),
+        errors=counts.get("error", 0) + counts.get("errors", 0),
+        wall_time_s=round(wall, 1),
+    )
+    if rc != 0:
+        failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", out, flags=re.M)
+        row["failed_tests"] = failed
+        row["output_tail"] = out[-3000:]
+        if rc is None:
+            row["error"] = f"timed out after {timeout:.0f} s"
+        else:
+            row["error"] = f"pytest exit status {rc}"
+    return row
+
+
+def _default_workers() -> int:
+    try:
+        import xdist  # noqa: F401
+    except ImportError:
+        return 0
+    return max(1, min(8, (os.cpu_count() or 2) // 2))
+
+
+def run(
+    parts: list[str],
+    *,
+    dry: bool,
+    timeout: float,
+    workers: int,
+    print_row: Callable[[dict], None] | None = None,
+) -> list[dict]:
+    """Run the parts in order within ``timeout`` seconds in all; one or more rows each."""
+    print_row = print_row or (lambda r: print(json.dumps(r), flush=True))
+    common = dict(
+        date=datetime.date.today().isoformat(),
+        commit=_git_commit(),
+        dry_run=dry,
+    )
+    meta = _meta_fallback()
+    deadline = time.monotonic() + timeout
+    rows: list[dict] = []
+    with contextlib.ExitStack() as stack:
+        if dry and "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+            # toy sizes are compile-bound: the parts share the programs they have in common
+            # (pst_f32 / repeat / accumulation, slope / slope_1m) through a private cache
+            cache = stack.enter_context(tempfile.TemporaryDirectory(prefix="damjax-xla-"))
+            stack.enter_context(
+                _environ(
+                    JAX_COMPILATION_CACHE_DIR=cache, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0"
+                )
+            )
+        for name in parts:
+            rows += _run_part(name, dry, timeout, deadline, workers, meta, common, print_row)
+    return rows
+
+
+@contextlib.contextmanager
+def _environ(**values: str) -> Iterator[None]:
+    old = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _run_part(
+    name: str,
+    dry: bool,
+    timeout: float,
+    deadline: float,
+    workers: int,
+    meta: dict,
+    common: dict,
+    print_row: Callable[[dict], None],
+) -> list[dict]:
+    """One part's rows (its error as a row); ``meta`` is updated from the child."""
+    rows: list[dict] = []
+    left = deadline - time.monotonic()
+    t0 = time.perf_counter()
+    if left < 5.0:
+        got = [dict(case=name, error=f"not run: the --timeout of {timeout:.0f} s is spent")]
+    elif name == "tests":
+        got = [_run_tests(dry, workers, left)]
+    else:
+        limit = left if dry else min(left, PART_TIMEOUT.get(name, 90.0))
+        got, child_meta, error = _run_child(name, dry, limit)
+        meta.update(child_meta)
+        if error is not None:
+            got.append(dict(case=name, error=error))
+    elapsed = round(time.perf_counter() - t0, 1)
+    for row in got:
+        row = {"part": name, **row, **meta, **common, "part_time_s": elapsed}
+        rows.append(row)
+        print_row(row)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks gpu", description=__doc__.split("\n")[0])
+    p.add_argument("--dry-run", action="store_true", help="every part at toy size (CI)")
+    p.add_argument("--no-tests", action="store_true", help="leave out the pytest part")
+    p.add_argument("--parts", default=None, help=f"comma-separated subset of {list(PARTS)}")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=None,
+        help="seconds for all parts (default 480; --dry-run 300); parts beyond it are "
+        "reported as not run",
+    )
+    p.add_argument("--workers", type=int, default=None, help="pytest-xdist workers")
+    p.add_argument("--run-part", default=None, help=argparse.SUPPRESS)
+    ns = p.parse_args(argv)
+    if ns.run_part is not None:
+        return _child(ns.run_part, ns.dry_run)
+    parts = list(PARTS) if ns.parts is None else [s for s in ns.parts.split(",") if s]
+    unknown = [n for n in parts if n not in PARTS]
+    if unknown:
+        p.error(f"unknown part(s) {unknown}; choose from {list(PARTS)}")
+    if ns.no_tests:
+        parts = [n for n in parts if n != "tests"]
+    timeout = ns.timeout if ns.timeout is not None else (300.0 if ns.dry_run else 480.0)
+    workers = _default_workers() if ns.workers is None else ns.workers
+    rows = run(parts, dry=ns.dry_run, timeout=timeout, workers=workers)
+    return 1 if any("error" in r for r in rows) else 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except Exception:  # a child part: the traceback on stderr for the parent's error line
+        traceback.print_exc()
+        sys.exit(1)
