@@ -520,6 +520,14 @@ def mpm88() -> None:
         emit(**m.run_case(n, n_steps=100, repeats=repeats, ti=ti))
 
 
+@case
+def figures() -> None:
+    """The documentation's figures (docs/images/*.png), about 5 min: benchmarks/figures.py."""
+    from benchmarks import figures as f
+
+    f.main([])
+
+
 def _run(name: str) -> None:
     t0 = time.perf_counter()
     CASES[name]()

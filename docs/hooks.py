@@ -109,7 +109,7 @@ def cli_page() -> str:
     from damjax import cli
 
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "88"  # argparse wraps at the terminal width: fix it
+    os.environ["COLUMNS"] = "76"  # argparse wraps at the terminal width: fit the page
     try:
         parser = cli.build_parser()
         parser.prog = "damjax"
