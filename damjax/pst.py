@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax import diagnostics
+from damjax import diagnostics, theory
 from damjax._tracing import concrete_tree, is_traced
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: public here too)
@@ -271,7 +271,10 @@ def finish(
     sigma_xx = np.asarray(final.sigma[0])
     height, wl_shear, smooth = (np.asarray(v) for v in _host_diagnostics(model, final))
     opening = np.asarray(final.opening)
-    fractures = slab_fractures(model, final)
+    if model.plastic and not model.crack_band:
+        fractures = _crack_fractures(params, setup, x_ref, final, times, tips)
+    else:
+        fractures = slab_fractures(model, final)
     if layout.dim == 2:  # report the strip's average per x
         x_all = x_ref
         x_ref, sigma_xx, height, opening, wl_shear = _width_average(
@@ -342,6 +345,31 @@ def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
         np.asarray(state.t_fracture),
         float(np.min(np.asarray(fracture_strain(model)))),
         FRACTURE_GAP,
+    )
+
+
+def _crack_fractures(
+    params: PSTParams,
+    setup: PSTSetup,
+    x_ref: np.ndarray,
+    final: State,
+    times: np.ndarray,
+    tips: np.ndarray,
+) -> list[dict[str, float]]:
+    """Fractures of the perfectly plastic slab by what they do to the crack
+    (`damjax.materials.slab_fracture.crack_fractures`: speed drops and the crown)."""
+    arrested, l_ca, t_stop = diagnostics.arrest(times, tips, setup.length, setup.dx)
+    if setup.controlled or not arrested:
+        l_ca, t_stop = None, None
+    return slab_fracture.crack_fractures(
+        times,
+        tips,
+        x_ref,
+        np.asarray(final.u[0]),
+        float(theory.shear_wave_speed(params)),
+        l_ca,
+        t_stop,
+        float(theory.longitudinal_wave_speed(params, setup.lateral)),
     )
 
 

@@ -17,10 +17,12 @@ posed:
   in metres (`FIELD_SPACING`), so that a seed is the same field on every dx: where a
   fracture forms is decided by the snow.
 
-``"crack_band"`` is the default of PSTs (`damjax.PSTSetup`); slopes (`damjax.SlopeSetup`)
-keep ``"paper"`` by default. ``"paper"`` is the paper's perfectly plastic, homogeneous slab
-(the strength field ignored; a G_f given explicitly softens over one cell, as in earlier
-versions), kept so that its figures stay reproducible. Both models count fractures the same way
+``"paper"``, the default of PSTs and slopes (`damjax.PSTSetup`, `damjax.SlopeSetup`), is the
+paper's perfectly plastic, homogeneous slab (the strength field ignored; a G_f given
+explicitly softens over one cell, as in earlier versions): its arrests reproduce the paper's
+and converge with dx. ``"crack_band"`` is an explicit alternative; with literature G_f and
+strength variability its arrests differ from the paper's and its fracture count does not yet
+converge with dx (docs/model/slab.md has the measurements). Both models count fractures the same way
 (`fractures`): a band whose opening reached `damjax.core.step.fracture_opening`.
 
 Default values (chosen from the literature, not fitted to any result):
@@ -62,6 +64,12 @@ FIELD_SPACING = (0.05, 0.1)  # node spacing of the strength field, 1D and 2D [m]
 OPENING_HALF_WIDTH = 0.15  # half-width of the window of the band opening [m]
 FRACTURE_GAP = 1.0  # fractures closer than this are one [m]
 SPEED_WINDOW = 0.05  # crack speed before / after a fracture: mean over this time [s]
+# The perfectly plastic ("paper") slab's fractures, counted by what they do (`crack_fractures`)
+SEPARATION_WINDOW = 1.0  # the slab's stretch is its displacement difference over this [m]
+SEPARATION_OPENING = 0.1  # a stretch over SEPARATION_WINDOW this large is a separation [m]
+DROP_SAMPLE = 0.01  # crack speed: mean over consecutive intervals of this length [s]
+DROP_HORIZON = 0.02  # trend of the crack speed over this time, extrapolated as far [s]
+DROP_SPEED = 0.1  # a speed drop: the speed falls this far below its trend [c_s]
 _SALT = 0x5AB  # folded into the seed: the slab field is independent of other draws
 
 
@@ -76,7 +84,10 @@ def _key(seed: int) -> Any:
 
 def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
     """mean x exp(s z - s^2 / 2), s^2 = ln(1 + cov^2): mean and CoV exact for z ~ N(0, 1)."""
-    s = jnp.sqrt(jnp.log1p(cov * cov))
+    # s ~ |cov| near 0: sqrt(log1p(cov^2)) has a 0 * inf = NaN derivative at cov = 0
+    x = cov * cov
+    pos = x > 0.0
+    s = jnp.where(pos, jnp.sqrt(jnp.where(pos, jnp.log1p(x), 1.0)), jnp.abs(cov))
     return mean * jnp.exp(s * z - 0.5 * s * s)
 
 
@@ -200,3 +211,137 @@ def speed_changes(
             }
         )
     return out
+
+
+def separations(
+    x: np.ndarray,
+    slip: np.ndarray,
+    window: float = SEPARATION_WINDOW,
+    threshold: float = SEPARATION_OPENING,
+    gap: float = FRACTURE_GAP,
+) -> list[dict[str, float]]:
+    """Places where the slab came apart: ``{x_m, opening_m}`` sorted by x.
+
+    The slab's stretch at x is the difference of its slope-parallel displacement ``slip``
+    [m] across a window of ``window`` metres centred on x (particles at the same x, as
+    across a 2D strip, averaged first). A separation is a local maximum of the stretch of
+    at least ``threshold`` [m]; maxima closer than ``gap`` [m] are one. Perfectly plastic
+    stretching spreads a few millimetres per metre (sigma_t / E and plastic flow), so a
+    stretch of decimetres over a metre is an opening slab, whatever the grid.
+    """
+    x, slip = np.asarray(x, dtype=float).ravel(), np.asarray(slip, dtype=float).ravel()
+    xs, inv = np.unique(x, return_inverse=True)
+    if xs.size < 2:
+        return []
+    us = np.bincount(inv, weights=slip) / np.bincount(inv)
+    half = 0.5 * window
+    stretch = np.interp(xs + half, xs, us) - np.interp(xs - half, xs, us)
+    # the stretch is flat while the window slides over one jump: the separation lies at
+    # the steepest step of the displacement inside the window of the largest stretch
+    step = np.diff(us) / np.maximum(np.diff(xs), 1e-12)
+    mid = 0.5 * (xs[1:] + xs[:-1])
+    out: list[dict[str, float]] = []
+    for i in np.argsort(-stretch, kind="stable"):
+        if stretch[i] < threshold:
+            break
+        inside = np.nonzero(np.abs(mid - xs[i]) <= half)[0]
+        x_f = float(mid[inside[np.argmax(step[inside])]]) if inside.size else float(xs[i])
+        if all(abs(x_f - f["x_m"]) > gap for f in out):
+            out.append({"x_m": x_f, "opening_m": float(stretch[i])})
+    return sorted(out, key=lambda f: f["x_m"])
+
+
+def speed_drops(
+    time: np.ndarray,
+    tip: np.ndarray,
+    shear_wave_speed: float,
+    sample: float = DROP_SAMPLE,
+    horizon: float = DROP_HORIZON,
+    drop: float = DROP_SPEED,
+) -> list[dict[str, float]]:
+    """Sudden drops of the crack speed: ``{t_s, tip_m, speed_drop_m_per_s}``.
+
+    The crack speed is the tip's mean speed over consecutive ``sample`` seconds. At each
+    sample, the speed's trend over the previous ``horizon`` seconds (a straight line through
+    the speeds ``horizon`` apart, capped at the current speed) is extrapolated ``horizon``
+    seconds ahead; a drop is where the crack then runs at least ``drop`` shear-wave speeds
+    slower than its trend. A steady
+    deceleration (a strength gradient) follows its trend and is no drop; so is the crack
+    coming to rest (the trend then falls below zero). ``t_s``: start of the slower
+    interval [s]; ``tip_m``: the tip then [m]; drops closer than ``horizon`` in time are one
+    (the largest).
+    """
+    time, tip = np.asarray(time, dtype=float), np.asarray(tip, dtype=float)
+    if time.size < 2:
+        return []
+    grid = np.arange(float(time[0]), float(time[-1]) + 1e-12, sample)
+    pos = np.interp(grid, time, tip)
+    v = np.diff(pos) / sample  # speed over [grid[k], grid[k + 1]]
+    n = max(1, int(round(horizon / sample)))
+    limit = drop * float(shear_wave_speed)
+    events: list[tuple[float, int]] = []
+    for k in range(2 * n, v.size):
+        before, earlier = v[k - n], v[k - 2 * n]
+        # linear, n samples further; never above the current speed: a crack whose
+        # acceleration levels off keeps its speed, which is no drop
+        trend = min(before + (before - earlier), before)
+        lost = trend - v[k]
+        if trend > 0.0 and lost >= limit:
+            events.append((lost, k))
+    out: list[dict[str, float]] = []
+    for lost, k in sorted(events, key=lambda e: (e[0], -e[1]), reverse=True):
+        # the drop starts with the first interval after the trend's that lost half of it
+        j = next(i for i in range(k - n + 1, k + 1) if v[k - n] - v[i] >= 0.5 * lost)
+        t = float(grid[j])
+        if all(abs(t - e["t_s"]) > horizon for e in out):
+            out.append({"t_s": t, "tip_m": float(pos[j]), "speed_drop_m_per_s": float(lost)})
+    return sorted(out, key=lambda e: e["t_s"])
+
+
+def crack_fractures(
+    time: np.ndarray,
+    tip: np.ndarray,
+    x: np.ndarray,
+    slip: np.ndarray,
+    shear_wave_speed: float,
+    arrest_position: float | None,
+    arrest_time: float | None,
+    wave_speed: float | None = None,
+) -> list[dict[str, float]]:
+    """Slab fractures that the crack feels, ``{x_m, t_s, opening_m}`` sorted by time.
+
+    The count of a slab without a length scale of its own (the perfectly plastic
+    ``"paper"`` slab), whose localised openings have no width of their own and whose number
+    of openings depends on dx. What is counted does not: a fracture is
+
+    - a sudden drop of the crack speed (`speed_drops`: 0.1 c_s below its 20 ms trend
+      within 20 ms) with a slab separation (`separations`: a stretch of 0.1 m over 1 m of
+      the final slab) at most ``wave_speed`` x 2 x `DROP_HORIZON` metres behind the tip
+      (how far the slab's longitudinal wave, ``wave_speed`` [m/s], carries the news of a
+      fracture while the drop shows; default 2 c_s), located at the one nearest the tip.
+      A drop without a separation there (the onset of a strength gradient) is none;
+    - the crown: when the crack arrested, the separation within `FRACTURE_GAP` of the
+      arrest position (at the arrest time), unless a drop already stands there.
+
+    ``opening_m`` is the separation's stretch. A separation
+    that formed behind the crack without changing its speed (a perfectly plastic slab
+    carries sigma_y h wherever it yields, so the force at the tip does not change) is not
+    a fracture of the crack; `separations` lists them all.
+    """
+    seps = separations(x, slip)
+    c_l = 2.0 * float(shear_wave_speed) if wave_speed is None else float(wave_speed)
+    reach = 2.0 * DROP_HORIZON * c_l
+    out: list[dict[str, float]] = []
+    for d in speed_drops(time, tip, shear_wave_speed):
+        near = [s for s in seps if -reach <= s["x_m"] - d["tip_m"] <= FRACTURE_GAP]
+        if not near:
+            continue
+        f = min(near, key=lambda s: abs(s["x_m"] - d["tip_m"]))
+        if all(abs(f["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
+            out.append({"x_m": f["x_m"], "t_s": d["t_s"], "opening_m": f["opening_m"]})
+    if arrest_position is not None and math.isfinite(arrest_position):
+        crown = [s for s in seps if abs(s["x_m"] - arrest_position) <= FRACTURE_GAP]
+        if crown and all(abs(crown[0]["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
+            t = float(arrest_time) if arrest_time is not None else math.nan
+            out.append({"x_m": crown[0]["x_m"], "t_s": t, "opening_m": crown[0]["opening_m"]})
+    return sorted(out, key=lambda f: f["t_s"])
