@@ -527,23 +527,31 @@ def gis_export() -> str:
     cell = float(head["cellsize"])
     xs = x0 + cell * (np.arange(ncols) + 0.5)
     ys = y0 + cell * (np.arange(nrows)[::-1] + 0.5)
-    fig, ax = plt.subplots(figsize=(WIDTH, 5.0))
-    fig.subplots_adjust(left=0.12, right=0.97, top=0.93, bottom=0.12)
-    cs = ax.contour(xs, ys, dem, levels=20, colors="0.55", linewidths=0.5)
+    fig, ax = plt.subplots(figsize=(WIDTH, 4.8))
+    fig.subplots_adjust(left=0.14, right=0.97, top=0.88, bottom=0.12)
+    pad = 15.0  # [m] of map around the release area
+    view = (
+        (xs > ext[0] - pad)[None, :]
+        & (xs < ext[1] + pad)[None, :]
+        & (ys > ext[2] - pad)[:, None]
+        & (ys < ext[3] + pad)[:, None]
+    )
+    levels = np.arange(np.floor(dem[view].min()), dem[view].max() + 2.0, 2.0)
+    cs = ax.contour(xs, ys, dem, levels=levels, colors="0.55", linewidths=0.5)
     ax.clabel(cs, fontsize=6, fmt="%.0f m")
     im = ax.imshow(at, extent=ext, cmap="viridis", zorder=2)
     zones.boundary.plot(ax=ax, color="tab:red", lw=1.2, zorder=3)
     area = float(zones["area_m2"].sum())
-    ax.set_xlim(ext[0] - 40, ext[1] + 40)
-    ax.set_ylim(ext[2] - 40, ext[3] + 40)
+    ax.set_xlim(ext[0] - pad, ext[1] + pad)
+    ax.set_ylim(ext[2] - pad, ext[3] + pad)
     ax.set_aspect("equal")
     ax.ticklabel_format(useOffset=False, style="plain")
     ax.set_xlabel(f"easting [m] ({crs.to_string() if crs else 'no CRS'})")
     ax.set_ylabel("northing [m]")
     fig.colorbar(im, ax=ax, label="arrival_time.tif: weak-layer failure time [s]", shrink=0.8)
     ax.set_title(
-        f"damjax export run --to gis gis: arrival_time.tif and release_zones.gpkg "
-        f"({len(zones)} zone, {area:.0f} m^2 on the map) over the DEM's contours"
+        f"damjax export run --to gis gis: arrival_time.tif and release_zones.gpkg\n"
+        f"({len(zones)} zone(s), {area:.0f} m^2 on the map, red) over the DEM's 2 m contours"
     )
     return _save(fig, "gis_export", "slope-dem-gully as shipped (dx 0.2 m, 2 s)")
 
