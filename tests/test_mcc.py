@@ -124,7 +124,11 @@ def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
         run = jax.jit(lambda m, x: pst.integrate_pure(m, x, lay.n_chunks, lay.chunk_steps))
         f_el, tips_el = run(m_el, st0)
         f_pl, tips_pl = run(m_pl, st0)
-        np.testing.assert_array_equal(np.asarray(tips_el), np.asarray(tips_pl))
+        # two compiled programs (equal on XLA:CPU): the tip, the saw coordinate of the
+        # furthest broken particle, can move by one particle spacing where round-off moves
+        # a failure by a step
+        spacing = s.dx / s.particles_per_cell
+        np.testing.assert_allclose(np.asarray(tips_el), np.asarray(tips_pl), rtol=0, atol=spacing)
         sig_el, sig_pl = np.asarray(f_el.sigma), np.asarray(f_pl.sigma)
     assert sig_el.dtype == np.float64
     np.testing.assert_allclose(sig_el, sig_pl, rtol=1e-9, atol=1e-6)

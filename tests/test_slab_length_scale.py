@@ -321,8 +321,15 @@ def test_paper_slab_moves_as_without_a_lattice_and_elastic_slabs_get_none():
 
     a, b = run(model), run(bare)
     assert float(np.max(a.opening)) > 0.0  # the slab yielded
-    np.testing.assert_array_equal(np.asarray(a.sigma[0]), np.asarray(b.sigma[0]))
-    np.testing.assert_array_equal(np.asarray(a.u), np.asarray(b.u))
+    # bit for bit on XLA:CPU; the two models compile to different programs, which a GPU
+    # may round differently (fusion, FMA contraction): float32 round-off carried over 1500
+    # steps. Measured 2026-11-26 (CPU): a 1-ulp change of the strength gradient moves
+    # sigma_xx by at most 2.9e-5 max|sigma_xx| (the return mapping amplifies it) and u by
+    # 4.8e-7 max|u|; allowed: about 4x that
+    sig_a, sig_b = np.asarray(a.sigma[0]), np.asarray(b.sigma[0])
+    u_a, u_b = np.asarray(a.u), np.asarray(b.u)
+    np.testing.assert_allclose(sig_a, sig_b, rtol=0, atol=1e-4 * np.max(np.abs(sig_a)))
+    np.testing.assert_allclose(u_a, u_b, rtol=0, atol=2e-6 * np.max(np.abs(u_a)))
     for choice in ("paper", "crack_band"):
         elastic = PSTParams()
         s = dataclasses.replace(setup, slab_fracture=choice)

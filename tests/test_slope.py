@@ -354,7 +354,14 @@ def test_constant_slope_profile_equals_the_scalar_slope():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         a, b = simulate_pst(base, setup), simulate_pst(prof, setup)
-    assert np.array_equal(a.tip, b.tip) and np.array_equal(a.sigma_xx, b.sigma_xx)
+    # the same maths by two compiled programs (equal on XLA:CPU), which a GPU may round
+    # differently (fusion, FMA contraction): float32 round-off carried over the 1100 steps.
+    # Measured 2026-11-26 (CPU): a 1-ulp change of the slope angle moves sigma_xx by at most
+    # 2.7e-6 max|sigma_xx| and no tip sample; allowed: 4x that, and one particle spacing
+    # for a tip sample (a failure moved by one step)
+    np.testing.assert_allclose(a.tip, b.tip, rtol=0, atol=setup.dx / setup.particles_per_cell)
+    scale = float(np.max(np.abs(a.sigma_xx)))
+    np.testing.assert_allclose(a.sigma_xx, b.sigma_xx, rtol=0, atol=1e-5 * scale)
 
 
 def test_slope_profile_is_validated_and_differentiable():
