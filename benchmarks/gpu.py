@@ -366,7 +366,13 @@ PARTS: dict[str, Callable[[Sizes], None]] = {
     "tests": None,  # type: ignore[dict-item] # runs pytest from the parent (see _run_tests)
 }
 # the longest a part may take in the full run [s] (the tests get what is left)
-PART_TIMEOUT = {"ensemble16": 150.0, "slope_1m": 120.0, "gradient_check": 120.0}
+PART_TIMEOUT = {
+    "pst_grad": 150.0,  # two rounds of forward + gradient of 40 000 steps, two compilations
+    "gradient_check": 150.0,
+    "accumulation": 180.0,  # four runs, four compilations
+    "ensemble16": 150.0,
+    "slope_1m": 120.0,
+}
 
 
 # ------------------------------------------------------------------ parent side

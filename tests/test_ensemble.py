@@ -265,12 +265,18 @@ def _launch(code: str, folder: Path, n: int = 2, timeout: float = 300) -> list[s
     port = _port()
     root = str(Path(damjax.__file__).parent.parent)  # the damjax this test imported
     path = os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])
+    # the device's platform ("cpu", "cuda", "rocm"): jax.default_backend() says "gpu" on
+    # both GPU kinds, and JAX_PLATFORMS=gpu makes JAX look for ROCm beside CUDA
+    platform = jax.devices()[0].platform
     env = {
         **os.environ,
         "DAMJAX_TEST_PORT": str(port),
-        "JAX_PLATFORMS": jax.default_backend(),
+        "JAX_PLATFORMS": platform,
         "PYTHONPATH": path,
     }
+    if platform != "cpu":
+        # n processes on one accelerator: none may take 75 % of its memory up front
+        env["XLA_PYTHON_CLIENT_PREALLOCATE"] = "false"
     procs, files = [], []
     for i in range(n):
         out = open(folder / f"proc{i}.out", "w+")  # noqa: SIM115
@@ -359,12 +365,18 @@ def test_two_processes_give_the_one_process_results(full_run, tiny, tmp_path):
         strength_gradient=np.array(PST_BATCH["strength_gradient"]),
         steady_length=PST_BATCH["steady_length"],
     )
-    one = damjax.sweep(batch, damjax.PSTSetup(**PST_SETUP))
+    setup = damjax.PSTSetup(**PST_SETUP)
+    one = damjax.sweep(batch, setup)
+    # each process runs its share as a smaller batch: another compiled program, which a GPU
+    # may round differently (fusion, FMA contraction). The tip is the saw coordinate of the
+    # furthest broken particle: a round-off difference can at most move one particle's
+    # failure by a step, and so a tip sample by one particle spacing
+    spacing = setup.dx / setup.particles_per_cell
     for text in outs:
         tips = json.loads([ln for ln in text.splitlines() if ln.startswith("PST ")][-1][4:])
         assert len(tips) == 3
         for t, r in zip(tips, one, strict=True):
-            np.testing.assert_array_equal(np.asarray(t, np.float32), r.tip)
+            np.testing.assert_allclose(np.asarray(t, np.float32), r.tip, rtol=0, atol=spacing)
     assert one[0].tip[-1] > one[2].tip[-1]  # steeper strength gradient: shorter crack
 
 
