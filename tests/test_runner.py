@@ -53,9 +53,15 @@ def scn_file(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def env(tmp_path_factory) -> dict:
-    """Subprocess environment: a private persistent compilation cache."""
+    """Subprocess environment: a private persistent compilation cache; no preallocation of
+    an accelerator's memory (two runs at once share one GPU; no effect on a CPU)."""
     cache = tmp_path_factory.mktemp("xla-cache")
-    return {**os.environ, "DAMJAX_CACHE_DIR": str(cache), "PYTHONUNBUFFERED": "1"}
+    return {
+        **os.environ,
+        "DAMJAX_CACHE_DIR": str(cache),
+        "PYTHONUNBUFFERED": "1",
+        "XLA_PYTHON_CLIENT_PREALLOCATE": "false",
+    }
 
 
 def assert_same_run(ref: Path, other: Path) -> None:
