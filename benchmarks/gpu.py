@@ -36,6 +36,7 @@ import datetime
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import tempfile
@@ -433,25 +434,34 @@ def _child_env(dry: bool) -> dict:
     return env
 
 
+def _run_group(cmd: list[str], env: dict, timeout: float) -> tuple[str, str, int | None]:
+    """stdout, stderr and exit status of ``cmd`` (None: killed at ``timeout``, with every
+    process it started: pytest workers, the parts' own subprocesses)."""
+    proc = subprocess.Popen(
+        cmd,
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        out, err = proc.communicate(timeout=timeout)
+        return out, err, proc.returncode
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        return out, err, None
+
+
 def _run_child(name: str, dry: bool, timeout: float) -> tuple[list[dict], dict, str | None]:
     """The rows a part printed, its metadata, and an error (None: it succeeded)."""
     cmd = [sys.executable, "-m", "benchmarks.gpu", "--run-part", name]
     if dry:
         cmd.append("--dry-run")
-    try:
-        res = subprocess.run(
-            cmd,
-            cwd=ROOT,
-            env=_child_env(dry),
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-        )
-        stdout, stderr, rc = res.stdout, res.stderr, res.returncode
-    except subprocess.TimeoutExpired as exc:
-        stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else exc.stdout or ""
-        stderr = exc.stderr.decode() if isinstance(exc.stderr, bytes) else exc.stderr or ""
-        rc = None
+    stdout, stderr, rc = _run_group(cmd, _child_env(dry), timeout)
     rows, meta = [], {}
     for line in stdout.splitlines():
         if line.startswith("GPU-META "):
@@ -483,17 +493,16 @@ def _run_tests(dry: bool, workers: int, timeout: float) -> dict:
     env = _child_env(dry)
     env["XLA_PYTHON_CLIENT_PREALLOCATE"] = "false"
     t0 = time.perf_counter()
-    try:
-        res = subprocess.run(
-            cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout
-        )
-        out, rc = res.stdout + res.stderr, res.returncode
-    except subprocess.TimeoutExpired as exc:
-        out = exc.stdout.decode() if isinstance(exc.stdout, bytes) else exc.stdout or ""
-        rc = None
+    stdout, stderr, rc = _run_group(cmd, env, timeout)
+    out = stdout + stderr
     wall = time.perf_counter() - t0
+    # the counts of pytest's last summary line ("3 failed, 170 passed, 6 skipped in 250s")
+    summary = [ln for ln in out.splitlines() if re.search(r"\d+ (passed|failed|error)", ln)]
     counts = {
-        k: int(n) for n, k in re.findall(r"(\d+) (passed|failed|skipped|error|errors|xfailed)", out)
+        k: int(n)
+        for n, k in re.findall(
+            r"(\d+) (passed|failed|skipped|errors?|xfailed)", summary[-1] if summary else ""
+        )
     }
     row = dict(
         case="tests",
