@@ -43,7 +43,7 @@ from damjax.core.step import (
     fracture_strain,
     residual_shear,
 )
-from damjax.materials import slab_fracture, weak_layer
+from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup
 from damjax.validation import ensure_x64, require_x64, validate
 
@@ -58,7 +58,7 @@ def weak_layer_shear(model: Model, state: State) -> Any:
     k = weak_layer.cohesive_factor(
         state.u_max, model.tau_peak, tau_r, model.stiffness, model.softening, broken
     )
-    slip = jnp.sqrt(jnp.sum(state.u * state.u, axis=0))
+    slip = mcc._sqrt(jnp.sum(state.u * state.u, axis=0))  # finite gradient at zero slip
     return jnp.where(broken, tau_r, k * slip)
 
 

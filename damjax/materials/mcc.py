@@ -70,6 +70,20 @@ def _sqrt(x: Any) -> Any:
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1.0)), 0.0)
 
 
+def _div(x: Any, y: Any) -> Any:
+    """x / y (x / 1 where y = 0: callers select another value there), with a finite
+    gradient everywhere: exact where y^2 is a normal float (above 4x the smallest), zero
+    below. Reverse mode takes d(x / y) = (dx - x / y dy) / y with y^-2 from one power:
+    for |y| below ~1e-19 in float32 that overflows to inf (and a GPU that flushes the
+    subnormal y^2 to zero gives 1 / 0), and 0 * inf = NaN even where the cotangent is
+    zero, as in a branch that a `jnp.where` or `jnp.maximum` discards. The value is
+    x / y unchanged."""
+    tiny = 4.0 * float(jnp.finfo(jnp.result_type(y)).tiny)
+    big = y * y > tiny
+    q = x / jnp.where(y != 0.0, y, 1.0)
+    return jnp.where(big, x / jnp.where(big, y, 1.0), jax.lax.stop_gradient(q))
+
+
 def p0_from_tensile_strength(
     sigma_t: Any, M: Any, beta: Any, rule: str = "paper", invariants: str = "3d"
 ) -> Any:
@@ -182,7 +196,7 @@ def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any, invariants: str) -> Any
     n_xx = -0.5 * y_p + jnp.sqrt(3.0) / 2.0 * sgn * y_q
     n_yy = -0.5 * y_p - jnp.sqrt(3.0) / 2.0 * sgn * y_q
     safe = jnp.abs(n_xx) > 0.0
-    return jnp.where(safe, n_yy / jnp.where(safe, n_xx, 1.0), -1.0)
+    return jnp.where(safe, _div(n_yy, n_xx), -1.0)
 
 
 def return_map_uniaxial(
@@ -263,7 +277,7 @@ def return_map_uniaxial_softening(
         phi, dphi = _secant(o + rate * d)
         g = E * d + st * phi - sig_trial
         dg = E + st * rate * dphi
-        return jnp.where(tension & (dg > 0.0), d - g / jnp.where(dg > 0.0, dg, 1.0), d)
+        return jnp.where(tension & (dg > 0.0), d - _div(g, jnp.where(dg > 0.0, dg, 1.0)), d)
 
     # a loop, not unrolled: unrolled, XLA:CPU's fusions made a 100 m PST step 1.8 x slower.
     # Skipped while every yielding particle's band has let go (p0_band <= ``settled``):
@@ -280,11 +294,19 @@ def return_map_uniaxial_softening(
         d,
     )
     d = jnp.maximum(d, 0.0)
-    ratio = jnp.where(tension, d / jnp.where(tension, d_xx, 1.0), 1.0)
+    # d_yy scales with d. d_xx > 0 where tension in exact arithmetic, but XLA recomputes
+    # the strength and the trial stress in fusions that round apart (seen on CPU, float64:
+    # d_xx = 1e-54 where sig_trial <= st); the reverse, tension where d_xx = 0, made
+    # d / d_xx inf and d_yy x inf NaN. There d_yy is d times the flow ratio, and `_div`
+    # keeps the gradient of a tiny d_xx finite
+    pulled = tension & (d_xx > 0.0)
+    ratio = jnp.where(pulled, _div(d, jnp.where(pulled, d_xx, 1.0)), 1.0)
+    flow = _flow_uniaxial(sig, jnp.where(finite, p0, 1.0), M, beta, invariants)
+    d_yy_t = jnp.where(pulled, d_yy * ratio, d * flow)
     return (
         jnp.where(tension, sig_trial - E * d, sig),
         jnp.where(tension, d, d_xx),
-        jnp.where(tension, d_yy * ratio, d_yy),
+        jnp.where(tension, d_yy_t, d_yy),
     )
 
 
@@ -331,11 +353,12 @@ def return_map_plane(
         up = 1.0 / (1.0 + 2.0 * b * dl)
         f = A * uq**2 + B * up**2 - C
         df = -2.0 * a * A * uq**3 - 4.0 * b * B * up**3
-        dl = jnp.maximum(dl - f / jnp.where(df < 0.0, df, -1.0), 0.0)
+        # _div: an elastic particle (dl discarded) with a tiny trial stress has a tiny df
+        dl = jnp.maximum(dl - _div(f, jnp.where(df < 0.0, df, -1.0)), 0.0)
     dl = jnp.where(plastic, dl, 0.0)
     q = q_tr / (1.0 + a * dl)
     p = p_c + (p_tr - p_c) / (1.0 + 2.0 * b * dl)
-    scale = jnp.where(q_tr > 0.0, q / jnp.where(q_tr > 0.0, q_tr, 1.0), 0.0)
+    scale = jnp.where(q_tr > 0.0, _div(q, q_tr), 0.0)
     s = tuple(c * scale for c in s_tr)
     sigma_pl = (s[0] - p, s[1] - p, s[2])
     sigma_el = slab.plane_stress(eps_e, youngs_modulus, poisson)

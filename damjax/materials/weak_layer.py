@@ -62,7 +62,11 @@ def cohesive_factor(
     # an inf anywhere in a discarded branch still poisons the gradient as 0 * inf).
     tau_p_s = jnp.where(finite, tau_peak, 1.0)
     u_c_s, u_r_s = critical_displacements(tau_p_s, stiffness, softening)
-    span = jnp.where(softening > 0, u_r_s - u_c_s, 1.0)
+    # the span itself, not softening > 0: a softening below float resolution (1 + delta
+    # rounds to 1) gives u_r = u_c and a zero span, whose 0 / 0 poisoned the gradient
+    # through the discarded branch of a broken particle
+    span = u_r_s - u_c_s
+    span = jnp.where(span > 0, span, 1.0)
     softening_zone = finite & (u_max >= u_c_s)
     u_max_s = jnp.where(softening_zone, u_max, u_c_s)
     frac = jnp.clip((u_max_s - u_c_s) / span, 0.0, 1.0)
