@@ -424,7 +424,10 @@ def cmd_run(ns: argparse.Namespace) -> int:
         path = scenario.resolve(ns.scenario)
         _refuse_ensemble(path, ns.scenario)
         try:
-            scn = scenario.load(path)
+            if getattr(ns, "release_area", None):
+                scn = _load_with_release(path, ns.release_area)
+            else:
+                scn = scenario.load(path)
         except ValueError as exc:
             raise ValueError(
                 "\n".join(
@@ -447,6 +450,28 @@ def cmd_run(ns: argparse.Namespace) -> int:
     if isinstance(phases, dict):  # the scenario's loading and checks come first
         outcome.summary["phases_s"] = {"scenario_s": round(t1 - t0, 4), **phases}
     return _report(outcome, ns.json)
+
+
+def _load_with_release(path: Any, release: str) -> Any:
+    """``--release-area FILE``: a DEM slope scenario with terrain.release = FILE (the
+    polygon then sets terrain.origin and setup.length / width, which are dropped)."""
+    import tomllib
+    from pathlib import Path
+
+    from damjax import scenario
+
+    data = tomllib.loads(Path(path).read_text())
+    ter = data.get("terrain")
+    if data.get("type") != "slope" or not isinstance(ter, dict) or ter.get("kind") != "dem":
+        raise ValueError(
+            f"--release-area {release}: needs a slope scenario on a DEM "
+            '([terrain] kind = "dem", file = ...)'
+        )
+    ter["release"] = str(Path(release).expanduser().resolve())
+    ter.pop("origin", None)
+    for key in ("length", "width"):
+        data.get("setup", {}).pop(key, None)
+    return scenario.parse(data, base_dir=Path(path).parent)
 
 
 def cmd_resume(ns: argparse.Namespace) -> int:
@@ -540,6 +565,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
     p.add_argument("--out", metavar="DIR", help="output folder (default ./damjax-out/<name>)")
+    p.add_argument(
+        "--release-area",
+        metavar="FILE",
+        default=None,
+        help="a release-area polygon (.shp, .geojson; the DEM's CRS) as the domain of a "
+        "DEM slope scenario: sets terrain.release (replaces terrain.origin, setup.length, "
+        "setup.width; the slab thickness from its 'thickness' attribute)",
+    )
     _run_flags(p, "write DIR/checkpoint.npz every SECONDS of wall-clock time (0: every chunk)")
     p.set_defaults(func=cmd_run)
 

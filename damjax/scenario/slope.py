@@ -126,6 +126,9 @@ _TERRAIN_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "file": ("str", None, ""),
         "origin": ("pair", _ANY, "m"),
         "upslope": ("str", UPSLOPE_AXES, ""),
+        "release": ("str", None, ""),
+        "margin": ("float", _NONNEG, "m"),
+        "thickness_field": ("str", None, ""),
     },
 }
 _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
@@ -248,6 +251,66 @@ def _resolve_path(file: str, base_dir: str | Path | None) -> Path:
     return path.resolve()
 
 
+def _place_release(
+    terrain: dict[str, Any],
+    base_dir: str | Path | None,
+    pvals: dict[str, Any],
+    pgiven: Any,
+    svals: dict[str, Any],
+    problems: list[str],
+    notes: list[str],
+) -> None:
+    """``terrain.release``: the polygon (plus terrain.margin) sets the release area's
+    origin, up-slope axis, length and width, and the slab thickness (its attribute)."""
+    from damjax import release_area
+    from damjax import terrain as dem_io
+
+    for key in ("origin",):
+        if key in terrain:
+            problems.append(f"terrain.{key}: set by terrain.release (remove it)")
+    for key in ("length", "width"):
+        if key in svals:
+            problems.append(
+                f"setup.{key}: set by terrain.release (the polygon plus terrain.margin)"
+            )
+    if "file" not in terrain or problems:
+        return
+    dem_file = _resolve_path(terrain["file"], base_dir)
+    rel_file = _resolve_path(terrain["release"], base_dir)
+    terrain["release"] = str(rel_file)
+    try:
+        dem = dem_io.load_dem(dem_file)
+    except (OSError, ValueError, ImportError, KeyError) as exc:
+        msg = " ".join(str(exc).split())
+        problems.append(f"terrain.file = {_fmt(terrain['file'])}: {msg}")
+        return
+    thickness_given = "thickness" in pgiven
+    field = terrain.get("thickness_field", "thickness")
+    try:
+        area = release_area.read_release_area(
+            rel_file,
+            dem,
+            dem_file=dem_file,
+            margin=float(terrain.get("margin", 10.0)),
+            upslope=terrain.get("upslope"),
+            thickness_field="" if thickness_given and "thickness_field" not in terrain else field,
+        )
+    except release_area.ReleaseAreaError as exc:
+        problems.append(str(exc))
+        return
+    terrain["origin"] = list(area.origin)
+    terrain["upslope"] = area.upslope
+    svals["length"] = area.length
+    svals["width"] = area.width
+    if area.thickness is not None and not thickness_given:
+        pvals["thickness"] = area.thickness
+    elif area.thickness is not None:
+        notes.append(
+            f"params.thickness = {pvals['thickness']:g} m is used, not the polygon's "
+            f"{field} = {area.thickness:g} m"
+        )
+
+
 def check(
     data: dict[str, Any], base_dir: str | Path | None, problems: list[str]
 ) -> tuple[Any, list[str]]:
@@ -292,6 +355,8 @@ def check(
         problems,
     )
     notes: list[str] = []
+    if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
+        _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes)
     # params: ranges (damjax.validation's rules), retargeted to TOML keys
     params = PSTParams(**pvals)
     plines = param_problems(params, None)
@@ -350,7 +415,8 @@ def check(
     if problems:
         return None, []
     x0, y0 = setup.start
-    if strength is None or "start_window" not in strength:
+    released = terrain is not None and "release" in terrain  # start: weakest inside
+    if (strength is None or "start_window" not in strength) and not released:
         if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
             given = "" if "start" in svals else " (the default: give setup.start)"
             problems.append(
@@ -358,7 +424,7 @@ def check(
                 f"[0, {setup.length:g}] x [0, {setup.width:g}] m (the release area), or give "
                 "strength.start_window"
             )
-    else:
+    elif strength is not None and "start_window" in strength:
         win = strength["start_window"]
         problem = window_problem(win, setup.length, setup.width)
         if problem:

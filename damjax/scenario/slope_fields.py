@@ -229,7 +229,9 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
             f"y = {y[j]:.3g} m: the strength must stay > 0 Pa over the release area"
         )
     start = tuple(float(c) for c in setup.start)
-    if "start_window" in st:
+    if ter.get("release") and "start_window" not in st:
+        start = release_start(scn, tau)
+    elif "start_window" in st:
         case = GenericSlopeCase(  # only its grid and window: no generic profile
             length=setup.length,
             width=setup.width,
@@ -244,6 +246,36 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
     if isinstance(fall, np.ndarray) and not np.any(fall):
         fall = 0.0
     return slope, fall, tau, start
+
+
+def release_area_of(scn: Any) -> Any:
+    """The `damjax.release_area.ReleaseArea` of a scenario with ``terrain.release``."""
+    from damjax import release_area, terrain
+
+    ter = scn.terrain
+    return release_area.read_release_area(
+        ter["release"],
+        terrain.load_dem(ter["file"]),
+        margin=float(ter.get("margin", 10.0)),
+        upslope=ter.get("upslope"),
+        thickness_field="",
+    )
+
+
+def release_start(scn: Any, tau: np.ndarray) -> tuple[float, float]:
+    """The crack start of a ``terrain.release`` scenario: the weakest (2 m smoothed) spot
+    of tau at least 2 m inside the polygon (anywhere inside it if it is narrower) [m]."""
+    from damjax import release_area
+
+    x, y = cell_centres(scn.setup)
+    area = release_area_of(scn)
+    inside = area.mask(x, y, buffer=2.0)
+    if not np.any(inside):
+        inside = area.mask(x, y)
+    try:
+        return release_area.weakest_inside(tau, x, y, scn.setup.dx, inside)
+    except release_area.ReleaseAreaError as exc:
+        raise _FieldProblem(str(exc)) from None
 
 
 def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
