@@ -66,21 +66,8 @@ def slip_and_rate(u: Any, v: Any, dim: int) -> tuple[Any, Any]:
     u2 = u[0] * u[0] + u[1] * u[1]
     pos = u2 > 0.0
     slip = jnp.sqrt(jnp.where(pos, u2, 1.0))
-    # mcc._div: no inf in reverse mode where the slip is tiny (slip^-2 overflows)
-    rate = jnp.where(pos, mcc._div(u[0] * v[0] + u[1] * v[1], slip), 0.0)
+    rate = jnp.where(pos, (u[0] * v[0] + u[1] * v[1]) / slip, 0.0)
     return jnp.where(pos, slip, 0.0), rate
-
-
-def friction_scale(vg: Any, reach: Any) -> tuple[Any, Any]:
-    """(factor, |v|^2) per grid node: the Coulomb cap shrinks the node velocity vg (dim
-    rows) by ``reach`` = dt F_cap / m [m/s], never past zero: factor max(0, 1 - reach /
-    |v|), 0 at rest."""
-    speed2 = sum(c * c for c in vg)
-    moving = speed2 > 0.0
-    speed = jnp.sqrt(jnp.where(moving, speed2, 1.0))
-    # mcc._div: at a tiny speed (< 1e-19 m/s in float32) reverse mode's speed^-2 was inf,
-    # and 0 * inf = NaN where the cap stops the node or is zero
-    return jnp.where(moving, jnp.maximum(0.0, 1.0 - mcc._div(reach, speed)), 0.0), speed2
 
 
 def front_width(model: Model) -> Any:
@@ -412,7 +399,10 @@ def step(model: Model, state: State) -> State:
     m_safe = jnp.where(has_mass, grid_mass, 1.0)
     inv_m = jnp.where(has_mass, 1.0 / m_safe, 0.0)
     vg = [p * inv_m for p in grid_mom]
-    scale, speed2 = friction_scale(vg, dt * grid_cap * inv_m)
+    speed2 = sum(c * c for c in vg)
+    moving = speed2 > 0.0
+    speed = jnp.sqrt(jnp.where(moving, speed2, 1.0))
+    scale = jnp.where(moving, jnp.maximum(0.0, 1.0 - dt * grid_cap * inv_m / speed), 0.0)
     # a division last: XLA:CPU fuses a cheap grid update into every G2P gather and
     # re-evaluates it per gathered element (1D baseline: 3 x 23 us per step); a divide
     # counts as expensive, so the grid velocity is evaluated once per node

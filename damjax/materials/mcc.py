@@ -196,7 +196,7 @@ def _flow_uniaxial(sig: Any, p0: Any, M: Any, beta: Any, invariants: str) -> Any
     n_xx = -0.5 * y_p + jnp.sqrt(3.0) / 2.0 * sgn * y_q
     n_yy = -0.5 * y_p - jnp.sqrt(3.0) / 2.0 * sgn * y_q
     safe = jnp.abs(n_xx) > 0.0
-    return jnp.where(safe, _div(n_yy, n_xx), -1.0)
+    return jnp.where(safe, n_yy / jnp.where(safe, n_xx, 1.0), -1.0)
 
 
 def return_map_uniaxial(
@@ -277,7 +277,7 @@ def return_map_uniaxial_softening(
         phi, dphi = _secant(o + rate * d)
         g = E * d + st * phi - sig_trial
         dg = E + st * rate * dphi
-        return jnp.where(tension & (dg > 0.0), d - _div(g, jnp.where(dg > 0.0, dg, 1.0)), d)
+        return jnp.where(tension & (dg > 0.0), d - g / jnp.where(dg > 0.0, dg, 1.0), d)
 
     # a loop, not unrolled: unrolled, XLA:CPU's fusions made a 100 m PST step 1.8 x slower.
     # Skipped while every yielding particle's band has let go (p0_band <= ``settled``):
@@ -353,12 +353,14 @@ def return_map_plane(
         up = 1.0 / (1.0 + 2.0 * b * dl)
         f = A * uq**2 + B * up**2 - C
         df = -2.0 * a * A * uq**3 - 4.0 * b * B * up**3
-        # _div: an elastic particle (dl discarded) with a tiny trial stress has a tiny df
+        # _div: an elastic particle (dl discarded) with a trial stress of 1e-17 Pa (its
+        # strain 1e-23, round-off; beta = 1 centres the surface on p = 0) has df ~ 1e-27,
+        # whose square flushes to zero: the discarded step's gradient was 0 * inf = NaN
         dl = jnp.maximum(dl - _div(f, jnp.where(df < 0.0, df, -1.0)), 0.0)
     dl = jnp.where(plastic, dl, 0.0)
     q = q_tr / (1.0 + a * dl)
     p = p_c + (p_tr - p_c) / (1.0 + 2.0 * b * dl)
-    scale = jnp.where(q_tr > 0.0, _div(q, q_tr), 0.0)
+    scale = jnp.where(q_tr > 0.0, q / jnp.where(q_tr > 0.0, q_tr, 1.0), 0.0)
     s = tuple(c * scale for c in s_tr)
     sigma_pl = (s[0] - p, s[1] - p, s[2])
     sigma_el = slab.plane_stress(eps_e, youngs_modulus, poisson)
