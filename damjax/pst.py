@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import diagnostics, theory
-from damjax._tracing import concrete_tree, is_traced
+from damjax._tracing import concrete_tree, concrete_value, is_traced
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: public here too)
     SAW_LEAD,
@@ -198,9 +198,13 @@ def simulate_pst(
 
     The static layout (grid, step count, elastic or plastic slab) is made from the
     concrete values JAX holds behind the tracers under `jax.grad` and `jax.vmap` (the
-    whole batch, as `damjax.sweep` does); inside `jax.jit` there are none, so pass
-    ``layout=damjax.make_layout(params, setup)`` made from concrete parameters (the
-    stiffest and most sliding you will evaluate). Traced runs keep the runtime guards
+    whole batch, as `damjax.sweep` does); inside `jax.jit` from the fields that are not
+    traced. Only `layout_fields` fix it (the slab's wave speed, the slope and friction,
+    the weak layer's largest cohesive slip): a traced strength_gradient, tensile_strength
+    (a plastic layout), steady_length, ... needs no layout, and a traced field that fixes
+    it is a TypeError naming it; then pass ``layout=damjax.make_layout(params, setup)``
+    made from concrete parameters (the stiffest and most sliding you will evaluate).
+    Traced runs keep the runtime guards
     (`equinox.error_if`: a slab too stiff for the layout's time step, a finite tensile
     strength on an elastic layout).
 
@@ -373,20 +377,84 @@ def _crack_fractures(
     )
 
 
+def layout_fields(params: PSTParams) -> tuple[str, ...]:
+    """The fields of `PSTParams` that `make_layout` reads, hence that fix the layout: the
+    time step (the slab's wave speed from youngs_modulus, density and poisson; the slide
+    of a released slab from the slope and friction_deg) and the grid's padding (that
+    slide and the largest cohesive slip tau_p (1 + softening) D_wl / G_wl). The slab law
+    (tensile_strength) is not among them: unknown, the layout is plastic, which runs
+    any tensile strength (an infinite one through the same return map)."""
+    slope = "slope_profile" if params.slope_profile is not None else "slope_deg"
+    strength = "strength_profile" if params.strength_profile is not None else "tau_peak"
+    return (
+        "youngs_modulus",
+        "density",
+        "poisson",
+        slope,
+        "friction_deg",
+        strength,
+        "softening",
+        "wl_shear_modulus",
+        "wl_thickness",
+    )
+
+
+def unknown_fields(params: PSTParams) -> list[str]:
+    """Fields with a leaf whose value JAX does not hold (traced inside jax.jit)."""
+    return [
+        f.name
+        for f in dataclasses.fields(params)
+        if any(concrete_value(x) is None for x in jax.tree.leaves(getattr(params, f.name)))
+    ]
+
+
+def layout_from_known(params: PSTParams, setup: PSTSetup, caller: str) -> Layout:
+    """`make_layout` inside `jax.jit`, from the fields whose values are known: those that
+    fix the layout (`layout_fields`) must be, the others (strength_gradient,
+    steady_length, tensile_strength, saw_speed, the MCC constants, ...) may be traced.
+    A traced tensile strength gives a plastic layout. TypeError naming the traced fields
+    that fix the layout otherwise."""
+    unknown = unknown_fields(params)
+    fixing = [f for f in layout_fields(params) if f in unknown]
+    if fixing:
+        raise TypeError(
+            f"{caller}: inside jax.jit the values of {', '.join(fixing)} are unknown, and "
+            "they fix the layout (the grid and the step count); make the layout from "
+            "concrete parameters and pass it: layout = damjax.make_layout(params, setup); "
+            f"jax.jit(lambda p: damjax.{caller}(p, setup, layout=layout)). Traced fields "
+            "that do not fix it need no layout"
+        )
+    return make_layout(known_params(params, unknown), setup)
+
+
+def known_params(params: PSTParams, unknown: list[str]) -> PSTParams:
+    """``params`` with concrete values only, for a layout: the ``unknown`` fields (which
+    the layout must not read) get stand-ins, the defaults, and a traced tensile strength a
+    finite one, so that the layout is plastic. No tracer may reach `make_layout`, where
+    theory's formulas would turn traced too."""
+    defaults = PSTParams()
+    values = {
+        f.name: (
+            (1.0 if f.name == "tensile_strength" else getattr(defaults, f.name))
+            if f.name in unknown
+            else jax.tree.map(concrete_value, getattr(params, f.name))
+        )
+        for f in dataclasses.fields(params)
+    }
+    return dataclasses.replace(params, **values)
+
+
 def _simulate_traced(params: PSTParams, setup: PSTSetup, layout: Layout | None) -> PSTResult:
     """`simulate_pst` on traced parameters: the pure run (`run_pure`), JAX fields."""
     require_x64(setup.dtype)
     if layout is None:
         concrete = concrete_tree(params)
-        if concrete is None:
-            raise TypeError(
-                "simulate_pst: the parameters are traced inside jax.jit, where their values "
-                "(which fix the grid and the step count) are unknown; make the layout from "
-                "concrete parameters and pass it: layout = damjax.make_layout(params, "
-                "setup); jax.jit(lambda p: damjax.simulate_pst(p, setup, layout=layout))"
-            )
-        validate(concrete, setup, batch=True)
-        layout = make_layout(concrete, setup)
+        if concrete is None:  # inside jax.jit: from the leaves that are not traced
+            validate(params, setup, batch=True)  # the setup (values unknown)
+            layout = layout_from_known(params, setup, "simulate_pst")
+        else:
+            validate(concrete, setup, batch=True)
+            layout = make_layout(concrete, setup)
     else:
         validate(params, setup, batch=True)  # through the tracers' values where known
         check_layout(params, setup, layout)
@@ -452,9 +520,11 @@ def arrest_position_smooth(
         layout = damjax.make_layout(params, setup)   # grid and step count, concrete values
         grads = jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)
 
-    The layout (grid, step count, elastic or plastic slab) must come from concrete
-    parameters, so pass it whenever the parameters are traced (`jax.grad`, `jax.jit`,
-    `jax.vmap`); without it traced parameters are an error that says so.
+    The layout (grid, step count, elastic or plastic slab) comes from concrete
+    parameters: without one it is made from the fields that are not traced (`jax.grad`,
+    `jax.jit`, `jax.vmap` of, e.g., strength_gradient or tensile_strength alone), and a
+    traced field that fixes it (`layout_fields`) is a TypeError that names it; pass the
+    layout then, as above.
     It is the event-based crack tip made continuous (each particle's segment of weak
     layer counts by a C1 ramp of its maximum slip about the failure slip; see
     `damjax.diagnostics`), within one particle spacing of the event-based tip.
@@ -465,14 +535,20 @@ def arrest_position_smooth(
     require_x64(setup.dtype)
     if layout is None:
         if _traced(params):
-            raise TypeError(
-                "arrest_position_smooth: the parameters are traced (jax.grad/jit/vmap) and no "
-                "layout was given; make it from concrete parameters first: layout = "
-                "damjax.make_layout(params, setup), then "
-                "jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)"
-            )
-        validate(params, setup)
-        layout = make_layout(params, setup)
+            fixing = [f for f in layout_fields(params) if _traced(getattr(params, f))]
+            if fixing:
+                raise TypeError(
+                    f"arrest_position_smooth: {', '.join(fixing)} traced (jax.grad/jit/vmap) "
+                    "and no layout was given; they fix the layout (the grid and the step "
+                    "count): make it from concrete parameters first: layout = "
+                    "damjax.make_layout(params, setup), then "
+                    "jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)"
+                )
+            validate(params, setup, batch=True)
+            layout = layout_from_known(params, setup, "arrest_position_smooth")
+        else:
+            validate(params, setup)
+            layout = make_layout(params, setup)
     else:
         check_layout(params, setup, layout)
     model, final, _ = run_pure(params, setup, layout)

@@ -176,6 +176,55 @@ def test_grad_without_a_layout_is_a_clear_error():
     assert float(g.strength_gradient) < 0.0  # a steeper strength rise stops the crack sooner
 
 
+def test_jit_without_a_layout_over_fields_that_do_not_fix_it():
+    """Inside jax.jit the layout is made from the fields that are not traced: a traced
+    strength gradient (elastic slab) or tensile strength (plastic slab) needs no layout
+    and gives the layout path's values; a traced field that fixes the grid or the step
+    count is a clear error naming it (and so is a traced one in arrest_position_smooth)."""
+
+    def smooth(p, **kw):
+        return damjax.simulate_pst(p, SETUP, **kw).arrest_position_smooth
+
+    elastic = PARAMS
+    plastic = dataclasses.replace(PARAMS, tensile_strength=4500.0)
+    for params, name, value in (
+        (elastic, "strength_gradient", 700.0),
+        (plastic, "tensile_strength", 4000.0),
+    ):
+        layout = damjax.make_layout(dataclasses.replace(params, **{name: value}), SETUP)
+
+        def with_value(v, params=params, name=name):
+            return dataclasses.replace(params, **{name: v})
+
+        free = jax.jit(lambda v: smooth(with_value(v)))(value)
+        given = jax.jit(lambda v, layout=layout: smooth(with_value(v), layout=layout))(value)
+        assert float(free) == float(given), name
+        assert np.isfinite(float(free))
+    # arrest_position_smooth: jax.grad over a field that does not fix the layout
+    th = PARAMS.strength_gradient
+    layout = damjax.make_layout(PARAMS, SETUP)
+    g = jax.grad(
+        lambda t: damjax.arrest_position_smooth(
+            dataclasses.replace(PARAMS, strength_gradient=t), SETUP
+        )
+    )(th)
+    g_layout = jax.grad(
+        lambda t: damjax.arrest_position_smooth(
+            dataclasses.replace(PARAMS, strength_gradient=t), SETUP, layout
+        )
+    )(th)
+    assert float(g) == float(g_layout) and float(g) < 0.0
+    for name in ("wl_shear_modulus", "youngs_modulus", "softening"):
+        with pytest.raises(TypeError, match=f"{name} are unknown.*make_layout"):
+            jax.jit(lambda v, name=name: smooth(dataclasses.replace(PARAMS, **{name: v})))(1.0)
+    with pytest.raises(TypeError, match="wl_shear_modulus traced.*make_layout"):
+        jax.grad(
+            lambda g: damjax.arrest_position_smooth(
+                dataclasses.replace(PARAMS, wl_shear_modulus=g), SETUP
+            )
+        )(2.0e5)
+
+
 def _checkpointed_value_and_grad(params: PSTParams, setup: PSTSetup, mode: object):
     from damjax.core.loop import integrate_pure
     from damjax.diagnostics import smooth_arrest_position

@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax._tracing import concrete_members, is_traced
+from damjax._tracing import concrete_members, concrete_value, is_traced
 from damjax._version import __version__
 from damjax.constants import G_ACC
 from damjax.core.loop import integrate, integrate_pure
@@ -296,7 +296,10 @@ def simulate_slope(
     `jax.grad`, `jax.vmap`, `jax.jit`), like `damjax.simulate_pst`: the layout is made
     from the concrete values JAX holds behind the tracers (under `jax.grad` and
     `jax.vmap`), or passed in (``layout=damjax.core.model.make_slope_layout(params,
-    setup, max_slope_deg)``; required inside `jax.jit`). A traced result holds JAX maps
+    setup, max_slope_deg)``). Inside `jax.jit` it is made from the inputs that are not
+    traced; it needs a layout only where a traced input fixes it (`SLOPE_LAYOUT_FIELDS`:
+    youngs_modulus, density, poisson, friction_deg; and slope_deg): a traced strength map
+    tau_peak, softening or wl_shear_modulus needs none. A traced result holds JAX maps
     and a summary of JAX scalars: ``release_area_smooth_m2`` (differentiable, see
     `release_area_smooth`), ``release_area_m2`` (event-based), ``saw_radius_m`` and
     ``fault_code``.
@@ -459,6 +462,37 @@ def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
     )
 
 
+# the fields of PSTParams that make_slope_layout reads (with the steepest slope_deg): the
+# time step (the slab's wave speed) and the padding (the slide of a released slab)
+SLOPE_LAYOUT_FIELDS = ("youngs_modulus", "density", "poisson", "friction_deg")
+
+
+def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> SlopeLayout:
+    """`make_slope_layout` inside `jax.jit` (or nested `jax.vmap`) from the inputs whose
+    values are known: `SLOPE_LAYOUT_FIELDS` and the slope angle must be, the others (the
+    strength map tau_peak, fall_deg, tensile_strength, softening, wl_shear_modulus, ...)
+    may be traced; a traced tensile strength gives a plastic layout. TypeError naming the
+    traced inputs that fix the layout otherwise."""
+    from damjax.pst import known_params, unknown_fields
+
+    unknown = unknown_fields(params)
+    fixing = [f for f in SLOPE_LAYOUT_FIELDS if f in unknown]
+    slope = [concrete_value(x) for x in jax.tree.leaves(slope_deg)]
+    if any(v is None for v in slope):
+        fixing.append("slope_deg")
+    if fixing:
+        raise TypeError(
+            f"simulate_slope: inside jax.jit (or nested jax.vmap) the values of "
+            f"{', '.join(fixing)} are unknown, and they fix the grid and the step count; "
+            "make the layout from concrete values and pass it: layout = "
+            "damjax.core.model.make_slope_layout(params, setup, max_slope_deg); then "
+            "simulate_slope(..., layout=layout). Traced inputs that do not fix it need no "
+            "layout"
+        )
+    steepest = max(float(np.max(np.asarray(v, dtype=float))) for v in slope)
+    return make_slope_layout(known_params(params, unknown), setup, steepest)
+
+
 def _simulate_slope_traced(
     params: PSTParams,
     setup: SlopeSetup,
@@ -477,14 +511,9 @@ def _simulate_slope_traced(
             raise ValueError("\n".join(problems))
     if layout is None:
         if members is None:
-            raise TypeError(
-                "simulate_slope: the inputs are traced inside jax.jit (or nested jax.vmap), "
-                "where their values (which fix the grid and the step count) are unknown; make "
-                "the layout from concrete values and pass it: layout = "
-                "damjax.core.model.make_slope_layout(params, setup, max_slope_deg); then "
-                "simulate_slope(..., layout=layout)"
-            )
-        layout = _batch_layout(members, setup)
+            layout = _layout_from_known(params, setup, slope_deg)
+        else:
+            layout = _batch_layout(members, setup)
     model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
