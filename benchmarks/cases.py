@@ -528,6 +528,17 @@ def figures() -> None:
     f.main([])
 
 
+@case
+def real_path() -> None:
+    """AvaFrame's avaAlr / avaKot paths: damjax release ensemble vs documented polygon, com1DFA
+    runout vs reference (hours on 2 cores; DAMJAX_REAL_PATH_MEMBERS, default 16)."""
+    import os
+
+    from benchmarks import real_path as rp
+
+    rp.main(["--members", os.environ.get("DAMJAX_REAL_PATH_MEMBERS", "16")])
+
+
 def _run(name: str) -> None:
     t0 = time.perf_counter()
     CASES[name]()

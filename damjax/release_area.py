@@ -104,7 +104,12 @@ def _same_crs(a: str, b: str) -> bool:
         return True
 
     def proj4(c: Any) -> set[str]:  # the projection's terms (an ESRI .prj drops TOWGS84)
-        return {t for t in c.to_proj4().split() if not t.startswith(("+towgs84", "+no_defs"))}
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            text = c.to_proj4()
+        return {t for t in text.split() if not t.startswith(("+towgs84", "+no_defs"))}
 
     return ca.name.replace("_", " ") == cb.name.replace("_", " ") and proj4(ca) == proj4(cb)
 
@@ -282,5 +287,7 @@ def compare_release(
     xp = np.where(inside, x[:, None], -np.inf).max(axis=0)
     both = np.isfinite(xr) & np.isfinite(xp)
     out["crown_offset_m"] = float(xr.max() - xp.max()) if n_rel and n_in else math.nan
-    out["crown_offset_median_m"] = float(np.median((xr - xp)[both])) if np.any(both) else math.nan
+    out["crown_offset_median_m"] = (
+        float(np.median(xr[both] - xp[both])) if np.any(both) else math.nan
+    )
     return out

@@ -265,14 +265,10 @@ def _place_release(
     from damjax import release_area
     from damjax import terrain as dem_io
 
-    for key in ("origin",):
-        if key in terrain:
-            problems.append(f"terrain.{key}: set by terrain.release (remove it)")
-    for key in ("length", "width"):
-        if key in svals:
-            problems.append(
-                f"setup.{key}: set by terrain.release (the polygon plus terrain.margin)"
-            )
+    # origin, length and width come from the polygon; given ones (a stored scenario read
+    # back) must agree with it
+    given = {f"terrain.{k}": terrain.pop(k) for k in ("origin",) if k in terrain}
+    given.update({f"setup.{k}": svals.pop(k) for k in ("length", "width") if k in svals})
     if "file" not in terrain or problems:
         return
     dem_file = _resolve_path(terrain["file"], base_dir)
@@ -298,13 +294,24 @@ def _place_release(
     except release_area.ReleaseAreaError as exc:
         problems.append(str(exc))
         return
+    placed = {
+        "terrain.origin": list(area.origin),
+        "setup.length": area.length,
+        "setup.width": area.width,
+    }
+    for key, value in given.items():
+        if not np.allclose(np.asarray(value, float), placed[key], rtol=1e-9, atol=1e-6):
+            problems.append(
+                f"{key} = {_fmt(value)}: set by terrain.release (the polygon plus "
+                f"terrain.margin gives {_fmt(placed[key])}); remove it"
+            )
     terrain["origin"] = list(area.origin)
     terrain["upslope"] = area.upslope
     svals["length"] = area.length
     svals["width"] = area.width
     if area.thickness is not None and not thickness_given:
         pvals["thickness"] = area.thickness
-    elif area.thickness is not None:
+    elif area.thickness is not None and abs(pvals["thickness"] - area.thickness) > 1e-9:
         notes.append(
             f"params.thickness = {pvals['thickness']:g} m is used, not the polygon's "
             f"{field} = {area.thickness:g} m"
