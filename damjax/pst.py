@@ -334,11 +334,14 @@ def _host_diagnostics(model: Model, final: State) -> tuple[Any, Any, Any]:
 
 
 def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
-    """Slab fractures of a run, ``{x_m, t_s, opening_m}`` sorted by time: bands whose
-    opening [m] reached `damjax.core.step.fracture_opening`, bands closer than
-    `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`); the
-    same count for every slab model and grid. Models without a particle lattice (an
-    elastic slab) use the opening strain (`damjax.diagnostics.slab_fractures`)."""
+    """Band fractures of a final state, ``{x_m, t_s, opening_m}`` sorted by time: bands
+    whose opening [m] reached `damjax.core.step.fracture_opening`, bands closer than
+    `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`).
+    `simulate_pst` reports these for the "crack_band" slab, whose bands have a width of
+    their own; the perfectly plastic "paper" slab's fractures are counted by what they do
+    to the crack (`damjax.materials.slab_fracture.crack_fractures`), which needs the tip
+    history. Models without a particle lattice use the opening strain
+    (`damjax.diagnostics.slab_fractures`)."""
     x_ref = np.asarray(model.saw_coord)
     if model.lattice:
         w = np.asarray(band_opening(model, state.opening, opening_y=state.opening_y))
