@@ -73,11 +73,10 @@ def _sqrt(x: Any) -> Any:
 def _div(x: Any, y: Any) -> Any:
     """x / y (x / 1 where y = 0: callers select another value there), with a finite
     gradient everywhere: exact where y^2 is a normal float (above 4x the smallest), zero
-    below. Reverse mode takes d(x / y) = (dx - x / y dy) / y with y^-2 from one power:
-    for |y| below ~1e-19 in float32 that overflows to inf (and a GPU that flushes the
-    subnormal y^2 to zero gives 1 / 0), and 0 * inf = NaN even where the cotangent is
-    zero, as in a branch that a `jnp.where` or `jnp.maximum` discards. The value is
-    x / y unchanged."""
+    below. Reverse mode takes d(x / y) / dy = -x y^-2: for |y| below ~1e-19 in float32
+    y^2 is subnormal, which XLA flushes to zero (on CPUs and GPUs), so y^-2 = inf, and
+    0 * inf = NaN even where the cotangent is zero, as in a branch that a `jnp.where` or
+    a `jnp.maximum` discards. The value is x / y unchanged."""
     tiny = 4.0 * float(jnp.finfo(jnp.result_type(y)).tiny)
     big = y * y > tiny
     q = x / jnp.where(y != 0.0, y, 1.0)
