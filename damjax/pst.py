@@ -335,7 +335,7 @@ def _host_diagnostics(model: Model, final: State) -> tuple[Any, Any, Any]:
 
 def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     """Band fractures of a final state, ``{x_m, t_s, opening_m}`` sorted by time: bands
-    whose opening [m] reached `damjax.core.step.fracture_opening`, bands closer than
+    whose opening [m] reached `damjax.materials.slab_fracture.fracture_opening`, bands closer than
     `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`).
     `simulate_pst` reports these for the "crack_band" slab, whose bands have a width of
     their own; the perfectly plastic "paper" slab's fractures are counted by what they do

@@ -1,7 +1,7 @@
 """Slab fracture with a physical length scale: the pieces that make a fracture grid-independent.
 
 - the tensile-strength field of a seed is the same field on every particle grid;
-- the band opening (`damjax.core.step.band_opening`) of a localised band is its
+- the band opening (`damjax.materials.slab_fracture.band_opening`) of a localised band is its
   displacement jump, whatever the grid and however many particles the band spans;
 - fractures are counted from openings, with position, time and opening.
 """

@@ -14,10 +14,10 @@ from typing import Any
 import equinox as eqx
 import jax.numpy as jnp
 
-FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture [-]
-# (without a particle lattice, `Model.lattice` = ()): with one, a fracture is an opening
-# of FRACTURE_OPENING or more (`damjax.core.step.fracture_opening`)
-FRACTURE_OPENING = 1e-3  # smallest band opening counted as a slab fracture [m]
+# what marks a slab fracture: an opening strain of FRACTURE_STRAIN without a particle
+# lattice (`Model.lattice` = ()), a band opening of FRACTURE_OPENING or more with one
+# (`damjax.materials.slab_fracture.fracture_opening`)
+from damjax.materials.slab_fracture import FRACTURE_OPENING, FRACTURE_STRAIN  # noqa: F401
 
 # fault codes raised by the runtime guards (bit flags)
 FAULT_NAN = 1
@@ -82,7 +82,7 @@ class Model(eqx.Module):
     # the particles as a regular lattice in their reference positions, x-major (particles
     # per axis), its spacing [m], and the half-width in particles of the window over which
     # the plastic opening strain is summed into a band opening [m]
-    # (`damjax.core.step.band_opening`); () : no lattice, opening = strain x dx
+    # (`damjax.materials.slab_fracture.band_opening`); () : no lattice, opening = strain x dx
     lattice: tuple[int, ...] = eqx.field(static=True, default=())
     lattice_spacing: float = eqx.field(static=True, default=0.0)
     opening_window: int = eqx.field(static=True, default=0)

@@ -21,27 +21,25 @@ from __future__ import annotations
 
 from typing import Any
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.ad_checkpoint import checkpoint_name
 
 from damjax.core import transfer
-from damjax.core.state import (
-    FAULT_EDGE,
-    FAULT_NAN,
-    FAULT_THICKNESS,
-    FRACTURE_OPENING,
-    FRACTURE_STRAIN,
-    Model,
-    State,
-)
-from damjax.materials import mcc, slab, weak_layer
+from damjax.core.state import FAULT_EDGE, FAULT_NAN, FAULT_THICKNESS, Model, State
+from damjax.materials import mcc, slab, slab_fracture, weak_layer
 
-# A particle counts as opened (its strength follows its band's opening) once its own
-# opening exceeds this fraction of w_c: elastic steps leave round-off openings (1e-29 m
-# per step measured in float32 under jit), which must not soften an intact particle.
-OPENED = 1e-3
+# the slab's fracture law lives in `damjax.materials.slab_fracture`; these names stay
+# importable from here, where they were defined before 2026-11-26
+from damjax.materials.slab_fracture import (  # noqa: E402, F401
+    OPENED,
+    band_opening,
+    band_openings,
+    crack_band_opening,
+    fracture_opening,
+    fracture_strain,
+    principal_opening,
+)
 
 
 def stress_tensor(sigma: Any, dim: int) -> list[list[Any]]:
@@ -90,13 +88,13 @@ def broken_mask(model: Model, state: State) -> Any:
 
 
 def constitutive(
-    model: Model, state: State, eps: Any, band: Any = None, plain: Any = None
+    model: Model, state: State, eps: Any, start: slab_fracture.StepStart | None = None
 ) -> tuple[Any, Any, Any, Any, Any]:
     """Slab law on the trial total strain: (eps, sigma, eps_p, d_opening, d_opening_y),
     rows (n,); d_opening_y (2D; None in 1D) is the part of d_opening along y, the opening
     increment times n_y^2 for the direction n of the largest principal plastic strain.
-    ``band``, ``plain``: `band_opening` of the state's openings with and without spread,
-    if already computed.
+    ``start``: `damjax.materials.slab_fracture.step_start` of the state (plastic slabs;
+    made here when not given), whose return maps do the plastic update.
 
     1D strips get eps_yy from the lateral condition: "constrained" keeps eps_yy = 0,
     "free" keeps sigma_yy = 0 (uniaxial stress, exact uniaxial return mapping).
@@ -109,40 +107,12 @@ def constitutive(
     E, nu = model.youngs_modulus, model.poisson
     eps_p = tuple(state.eps_p)
     zero = jnp.zeros_like(eps[0])
+    if model.plastic and start is None:
+        start = slab_fracture.step_start(model, state)
     if model.dim == 1 and model.lateral == "free":
         sig_tr = E * (eps[0] - eps_p[0])
         if model.plastic:
-            p0, p0_band = _p0_and_band(model, state, band)
-            if model.crack_band and model.lattice:
-                # the band's other particles open in the step too: each Newton step
-                # takes their openings (the window sum, `band_opening`) at the current
-                # iterate, so the particles of a band soften together and the band
-                # dissipates G_f h (20 m PST: 0.99-1.00 on dx 0.08-0.02; with the other
-                # openings of the step's start, 1.10-1.28)
-                w_c = crack_band_opening(model)
-                rate = model.lattice_spacing / w_c
-
-                def others(d: Any) -> Any:
-                    d = jnp.maximum(d, 0.0)
-                    band = band_opening(model, d, spread=False)
-                    return jnp.maximum(band / w_c - rate * d, 0.0)
-
-                sxx, dxx, dyy = mcc.return_map_uniaxial_softening(
-                    sig_tr,
-                    p0,
-                    p0_band,
-                    rate,
-                    others,
-                    model.mcc_m,
-                    model.mcc_beta,
-                    E,
-                    model.mcc_invariants,
-                    settled=mcc.SETTLED * model.p0_init,
-                )
-            else:
-                sxx, dxx, dyy = mcc.return_map_uniaxial(
-                    sig_tr, p0, model.mcc_m, model.mcc_beta, E, model.mcc_invariants
-                )
+            sxx, dxx, dyy = slab_fracture.return_map_uniaxial(model, state, sig_tr, start)
             eps_p = (eps_p[0] + dxx, eps_p[1] + dyy, eps_p[2])
             d_open = jnp.maximum(dxx, 0.0)
         else:
@@ -154,179 +124,9 @@ def constitutive(
     eps_e = tuple(a - b for a, b in zip(eps, eps_p, strict=True))
     if not model.plastic:
         return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero, None
-    p0, p0_band = _p0_and_band(model, state, band)
-    args = (model.mcc_m, model.mcc_beta, E, nu, model.mcc_invariants)
-    if model.crack_band and model.lattice:
-        # energy-consistent, as the 1D map: the band's strength averaged over the step's
-        # opening (a fracture across a 0.3 m strip: 1.06-1.09 G_f h W on dx 0.08-0.02;
-        # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
-        w_c = crack_band_opening(model)
-        o, oy = state.opening, state.opening_y
-        w0 = _jump(model, o, oy) if plain is None else plain
-
-        def increase(d: Any) -> Any:
-            d_open, d_open_y = principal_opening(d)
-            return jnp.maximum(_jump(model, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
-
-        sigma, d_eps_p = mcc.return_map_plane_softening(
-            eps_e, p0, p0_band, increase, *args, settled=mcc.SETTLED * model.p0_init
-        )
-    else:
-        sigma, d_eps_p = mcc.return_map_plane(eps_e, p0, *args)
-    d_open, d_open_y = principal_opening(d_eps_p)
+    sigma, d_eps_p, d_open, d_open_y = slab_fracture.return_map_plane(model, state, eps_e, start)
     eps_p = tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True))
     return eps, sigma, eps_p, d_open, (None if model.dim == 1 else d_open_y)
-
-
-def principal_opening(d_eps_p: Any) -> tuple[Any, Any]:
-    """(d_opening, d_opening_y) of a plastic strain increment (xx, yy, xy): its largest
-    principal value, floored at 0, and that times n_y^2 for its direction n, the part a
-    band normal to y takes up (`band_opening`)."""
-    half = 0.5 * (d_eps_p[0] - d_eps_p[1])
-    r = jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30)
-    d_open = jnp.maximum(0.5 * (d_eps_p[0] + d_eps_p[1]) + r, 0.0)
-    return d_open, d_open * jnp.clip(0.5 - 0.5 * half / r, 0.0, 1.0)
-
-
-def _jump(model: Model, opening: Any, opening_y: Any) -> Any:
-    """`band_opening` without spread: the window sums only."""
-    return band_openings(model, opening, opening_y)[0]
-
-
-def crack_band_opening(model: Model) -> Any:
-    """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none)."""
-    return mcc.crack_band_opening(
-        model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
-    )
-
-
-def band_opening(model: Model, opening: Any, spread: bool = True, opening_y: Any = None) -> Any:
-    """Opening w [m] of the tensile band through each particle, rows (n,).
-
-    With a particle lattice (`Model.lattice`), the plastic opening strain times the
-    particle spacing, summed over the particles within `Model.opening_window` of it along
-    x. A localised band, one cell or a few wide, then has the same opening, its
-    displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
-    window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
-    strain times dx (one cell).
-
-    In 2D, ``opening_y`` (`State.opening_y`) is the part of ``opening`` along y: the x
-    part summed along x and the y part summed along y are the two components of the
-    band's jump, w n_x and w n_y for a band of any orientation n (a line along x crosses
-    a band of width b over b / n_x, where the band's strain is n_x^2 w / b), and w is
-    their length. Without it (a strain with no direction, such as a compaction): the
-    smaller of the x and y sums of ``opening``, the sum across a band, not along it.
-    """
-    if not model.lattice:
-        return opening * model.dx
-    return band_openings(model, opening, opening_y)[1 if spread else 0]
-
-
-def band_openings(model: Model, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
-    """`band_opening` without and with ``spread``, from one set of window sums."""
-    k = model.opening_window
-    s = model.lattice_spacing
-    # the sum over the window centred on each particle, then its largest value over the
-    # window: every particle of a band sees the band's whole opening, also near its edges
-    # (without spread: the window sum only, the opening of the band centred there)
-    if model.dim == 1:
-        w = _window(opening * s, k, jnp.add, 0.0, 0)
-        return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
-    if opening_y is None:
-        grid = jnp.reshape(opening * s, model.lattice)
-        w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
-        spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
-        return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
-    parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
-    w = [
-        _window(jnp.reshape(o, model.lattice), k, jnp.add, 0.0, axis)
-        for axis, o in enumerate(parts)
-    ]
-    spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
-    return tuple(
-        jnp.reshape(mcc._sqrt(a[0] * a[0] + a[1] * a[1]), opening.shape) for a in (w, spread)
-    )
-
-
-def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
-    """op (add or maximum) of ``a`` over [i - k, i + k] along ``axis``, padded with
-    ``pad_value``: blocks of 1, 2, 4, ... elements made by doubling and combined along the
-    binary digits of 2 k + 1 (2 log2(2 k + 1) elementwise ops; XLA:CPU's reduce_window
-    takes 2 k + 1 per element: with it a 100 m PST step at dx 0.02 took 1.19 / 1.72 x the
-    step without a lattice for the paper / crack_band slab, with this 1.01 / 1.16 x)."""
-    n = a.shape[axis]
-    pad = [(0, 0)] * a.ndim
-    pad[axis] = (k, k)
-    m = jnp.pad(a, pad, constant_values=pad_value)
-    out, offset, span, rest = None, 0, 1, 2 * k + 1
-    while True:
-        if rest & 1:  # the block of `span` elements at `offset`
-            block = jax.lax.slice_in_dim(m, offset, offset + n, axis=axis)
-            out = block if out is None else op(out, block)
-            offset += span
-        rest >>= 1
-        if not rest:
-            return out
-        size = m.shape[axis]
-        m = op(
-            jax.lax.slice_in_dim(m, 0, size - span, axis=axis),
-            jax.lax.slice_in_dim(m, span, size, axis=axis),
-        )
-        span *= 2
-
-
-def fracture_opening(model: Model) -> Any:
-    """Band opening [m] that marks a slab fracture, per particle.
-
-    With a particle lattice: FRACTURE_OPENING (1 mm), or, with crack-band softening
-    where it is larger, the opening at which the band keeps 1 % of its strength
-    (ln(100) w_c), the same on every grid and for every slab model. Without a lattice
-    (older layouts): FRACTURE_STRAIN x dx for a perfectly plastic slab, 3 w_c with
-    softening.
-    """
-    w_c = crack_band_opening(model)
-    finite = jnp.isfinite(w_c)
-    if not model.lattice:
-        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * model.dx)
-    return jnp.where(
-        finite,
-        jnp.maximum(FRACTURE_OPENING, float(np.log(100.0)) * jnp.where(finite, w_c, 0.0)),
-        FRACTURE_OPENING,
-    )
-
-
-def fracture_strain(model: Model) -> Any:
-    """Opening strain that marks a slab fracture without a lattice (`fracture_opening` / dx)."""
-    return fracture_opening(model) / model.dx
-
-
-def _p0(model: Model, state: State, band: Any = None) -> Any:
-    """Current consolidation pressure, explicit in the previous step's plastic strains:
-    SinhExpl softening with volumetric plastic strain (xi) and crack-band softening with
-    the band's opening (G_f): `band_opening` for the "crack_band" slab, the opening
-    strain x dx (one cell, grid-dependent) for the "paper" slab with a finite G_f."""
-    return _p0_and_band(model, state, band)[0]
-
-
-def _p0_and_band(model: Model, state: State, band: Any = None) -> tuple[Any, Any]:
-    """(`_p0`, the band's p0): for the "crack_band" slab the second is every particle's
-    strength as if it had opened, the strength a particle of a band takes on once it
-    yields (`constitutive`); both from one band opening. Otherwise the same p0 twice."""
-    bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    w_c = crack_band_opening(model)
-    eps_pv = state.eps_p[0] + state.eps_p[1]
-    if not (model.crack_band and model.lattice):
-        p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
-        p0 = mcc.softened_p0(p0, eps_pv, model.mcc_xi, bulk)
-        return p0, p0
-    # only particles that opened themselves soften (by more than round-off, OPENED): the
-    # window's sum must not weaken an intact neighbour, which would then yield too and
-    # spread the band over a plateau
-    w = band_opening(model, state.opening, opening_y=state.opening_y) if band is None else band
-    opened = state.opening * model.lattice_spacing > OPENED * w_c
-    p0_band = mcc.softened_p0(model.p0_init * jnp.exp(-w / w_c), eps_pv, model.mcc_xi, bulk)
-    p0_intact = mcc.softened_p0(model.p0_init, eps_pv, model.mcc_xi, bulk)
-    return jnp.where(opened, p0_band, p0_intact), p0_band
 
 
 def step(model: Model, state: State) -> State:
@@ -424,29 +224,13 @@ def step(model: Model, state: State) -> State:
     C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new
     d_eps = strain_increment(C_new, dt, dim)
-    band, plain, t_fracture = None, None, state.t_fracture
+    # the fracture law's view of the step's start: band openings, strengths, fracture times
+    start, t_fracture = None, state.t_fracture
     if model.plastic:  # an elastic slab never fractures
-        # a band reaches the fracture opening when the largest window sum in it does: the
-        # window sum alone (`band_opening` without its max) marks the band's first time.
-        # Tested on the openings at the start of the step, the time they were reached
-        # (the end of the previous step): the sums are the crack-band slab's own
-        # (`_p0_and_band`), and a window of the new openings cost 0.05 of a 0.25 ms step
-        opening_y = state.opening_y if dim > 1 else None
-        if model.lattice:
-            plain, band = band_openings(model, state.opening, opening_y)
-        else:
-            plain = band_opening(model, state.opening)
-        t_fracture = jnp.where(
-            jnp.isinf(state.t_fracture) & (plain >= fracture_opening(model)),
-            state.time,
-            state.t_fracture,
-        )
+        start = slab_fracture.step_start(model, state)
+        t_fracture = start.t_fracture
     eps, sigma, eps_p, d_open, d_open_y = constitutive(
-        model,
-        state,
-        tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)),
-        band,
-        plain if model.lattice else None,
+        model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)), start
     )
     opening = state.opening + d_open
     opening_y = state.opening_y if d_open_y is None else state.opening_y + d_open_y

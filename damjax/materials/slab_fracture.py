@@ -1,4 +1,4 @@
-"""Slab tensile fracture with a physical length scale: defaults, strength field, diagnostics.
+"""Slab tensile fracture: the fracture law of the time step, defaults, strength field, counts.
 
 A perfectly plastic or softening slab without a length scale localises a fracture in one
 cell: the energy a fracture dissipates goes to zero with dx (Bazant and Oh 1983), and in a
@@ -9,7 +9,7 @@ posed:
 
 - a fracture energy G_f per unit crack area (`PSTParams.slab_fracture_energy`): p0, hence
   the tensile strength, decays as exp(-w / w_c) with the opening w [m] of the band
-  (`damjax.core.step.band_opening`: the plastic opening strain summed across the band) and
+  (`band_opening`: the plastic opening strain summed across the band) and
   w_c = G_f / sigma_y, so that a fracture dissipates G_f per unit area on any grid;
 - heterogeneity: the tensile strength sigma_t is a seeded log-normal random field
   (`strength_field`) with a coefficient of variation (`slab_strength_cov`) and a
@@ -22,8 +22,13 @@ paper's perfectly plastic, homogeneous slab (the strength field ignored; a G_f g
 explicitly softens over one cell, as in earlier versions): its arrests reproduce the paper's
 and converge with dx. ``"crack_band"`` is an explicit alternative; with literature G_f and
 strength variability its arrests differ from the paper's and its fracture count does not yet
-converge with dx (docs/model/slab.md has the measurements). Both models count fractures the same way
-(`fractures`): a band whose opening reached `damjax.core.step.fracture_opening`.
+converge with dx (docs/model/slab.md has the measurements).
+
+The law (`step_start`, `return_map_uniaxial`, `return_map_plane`; band openings over windows
+fixed in metres, `band_opening`; the strength a band keeps, `p0_and_band`) is what
+`damjax.core.step` calls. The counts: the "crack_band" slab's fractures are bands whose
+opening reached `fracture_opening` (`fractures`); the "paper" slab's are those the crack
+feels (`crack_fractures`: speed drops with a separation behind the tip, and the crown).
 
 Default values (chosen from the literature, not fitted to any result):
 
@@ -47,7 +52,7 @@ Default values (chosen from the literature, not fitted to any result):
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -55,6 +60,7 @@ import numpy as np
 
 from damjax import fields
 from damjax.constants import SLAB_FRACTURE_MODELS  # noqa: F401  (the choices, public here)
+from damjax.materials import mcc
 
 DEFAULT_FRACTURE_ENERGY = 0.12  # G_f [J/m^2]
 DEFAULT_STRENGTH_COV = 0.2  # coefficient of variation of sigma_t [-]
@@ -89,6 +95,278 @@ def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
     pos = x > 0.0
     s = jnp.where(pos, jnp.sqrt(jnp.where(pos, jnp.log1p(x), 1.0)), jnp.abs(cov))
     return mean * jnp.exp(s * z - 0.5 * s * s)
+
+
+# --------------------------------------------------------------------------------------
+# The slab's tensile fracture law, one place for the time step (`damjax.core.step` calls
+# `step_start` once per step and `return_map_uniaxial` or `return_map_plane` from its
+# constitutive update): band openings over windows fixed in metres, the strength a band
+# keeps (crack-band softening with G_f), and the MCC return maps that soften with it.
+# ``model`` and ``state`` are `damjax.core.state.Model` and `State` (read by attribute:
+# this module imports nothing from the core).
+# --------------------------------------------------------------------------------------
+
+# A particle counts as opened (its strength follows its band's opening) once its own
+# opening exceeds this fraction of w_c: elastic steps leave round-off openings (1e-29 m
+# per step measured in float32 under jit), which must not soften an intact particle.
+OPENED = 1e-3
+FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture (no lattice) [-]
+FRACTURE_OPENING = 1e-3  # smallest band opening counted as a slab fracture [m]
+
+
+class StepStart(NamedTuple):
+    """What the fracture law needs of the state at the start of a step (`step_start`)."""
+
+    plain: Any  # window sums of the openings [m] (`band_openings`; None without a lattice)
+    band: Any  # the same, spread over each band (None without a lattice)
+    p0: Any  # consolidation pressure of each particle [Pa] (`p0_and_band`)
+    p0_band: Any  # the strength each particle takes on once it yields with its band [Pa]
+    t_fracture: Any  # time each particle's band reached `fracture_opening` [s] (inf: not)
+
+
+def step_start(model: Any, state: Any) -> StepStart:
+    """Band openings, strengths and fracture times at the start of a step (plastic slabs).
+
+    A band reaches the fracture opening when the largest window sum in it does: the window
+    sum alone (`band_opening` without its max) marks the band's first time. Tested on the
+    openings at the start of the step, the time they were reached (the end of the previous
+    step): the sums are the crack-band slab's own (`p0_and_band`), and a window of the new
+    openings cost 0.05 of a 0.25 ms step.
+    """
+    opening_y = state.opening_y if model.dim > 1 else None
+    if model.lattice:
+        plain, band = band_openings(model, state.opening, opening_y)
+    else:
+        plain, band = band_opening(model, state.opening), None
+    t_fracture = jnp.where(
+        jnp.isinf(state.t_fracture) & (plain >= fracture_opening(model)),
+        state.time,
+        state.t_fracture,
+    )
+    p0, p0_band = p0_and_band(model, state, band)
+    return StepStart(plain if model.lattice else None, band, p0, p0_band, t_fracture)
+
+
+def return_map_uniaxial(model: Any, state: Any, sig_tr: Any, start: StepStart) -> Any:
+    """(sigma_xx [Pa], d eps_p_xx, d eps_p_yy) of a 1D free strip (uniaxial stress) from the
+    trial stress ``sig_tr`` [Pa]: `damjax.materials.mcc.return_map_uniaxial`, or for the
+    "crack_band" slab its energy-consistent softening map."""
+    if not (model.crack_band and model.lattice):
+        return mcc.return_map_uniaxial(
+            sig_tr,
+            start.p0,
+            model.mcc_m,
+            model.mcc_beta,
+            model.youngs_modulus,
+            model.mcc_invariants,
+        )
+    # the band's other particles open in the step too: each Newton step takes their
+    # openings (the window sum, `band_opening`) at the current iterate, so the particles
+    # of a band soften together and the band dissipates G_f h (20 m PST: 0.99-1.00 on dx
+    # 0.08-0.02; with the other openings of the step's start, 1.10-1.28)
+    w_c = crack_band_opening(model)
+    rate = model.lattice_spacing / w_c
+
+    def others(d: Any) -> Any:
+        d = jnp.maximum(d, 0.0)
+        band = band_opening(model, d, spread=False)
+        return jnp.maximum(band / w_c - rate * d, 0.0)
+
+    return mcc.return_map_uniaxial_softening(
+        sig_tr,
+        start.p0,
+        start.p0_band,
+        rate,
+        others,
+        model.mcc_m,
+        model.mcc_beta,
+        model.youngs_modulus,
+        model.mcc_invariants,
+        settled=mcc.SETTLED * model.p0_init,
+    )
+
+
+def return_map_plane(
+    model: Any, state: Any, eps_e: Any, start: StepStart
+) -> tuple[Any, Any, Any, Any]:
+    """(sigma, d eps_p, d_opening, d_opening_y) of the plane-stress update from the trial
+    elastic strain ``eps_e`` (xx, yy, xy rows): `damjax.materials.mcc.return_map_plane`, or
+    for the "crack_band" slab its energy-consistent softening map; the opening increments
+    from `principal_opening`."""
+    args = (model.mcc_m, model.mcc_beta, model.youngs_modulus, model.poisson)
+    args = (*args, model.mcc_invariants)
+    if model.crack_band and model.lattice:
+        # energy-consistent, as the 1D map: the band's strength averaged over the step's
+        # opening (a fracture across a 0.3 m strip: 1.06-1.09 G_f h W on dx 0.08-0.02;
+        # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
+        w_c = crack_band_opening(model)
+        o, oy = state.opening, state.opening_y
+        w0 = _jump(model, o, oy) if start.plain is None else start.plain
+
+        def increase(d: Any) -> Any:
+            d_open, d_open_y = principal_opening(d)
+            return jnp.maximum(_jump(model, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
+
+        sigma, d_eps_p = mcc.return_map_plane_softening(
+            eps_e,
+            start.p0,
+            start.p0_band,
+            increase,
+            *args,
+            settled=mcc.SETTLED * model.p0_init,
+        )
+    else:
+        sigma, d_eps_p = mcc.return_map_plane(eps_e, start.p0, *args)
+    d_open, d_open_y = principal_opening(d_eps_p)
+    return sigma, d_eps_p, d_open, d_open_y
+
+
+def principal_opening(d_eps_p: Any) -> tuple[Any, Any]:
+    """(d_opening, d_opening_y) of a plastic strain increment (xx, yy, xy): its largest
+    principal value, floored at 0, and that times n_y^2 for its direction n, the part a
+    band normal to y takes up (`band_opening`)."""
+    half = 0.5 * (d_eps_p[0] - d_eps_p[1])
+    r = jnp.sqrt(half * half + d_eps_p[2] ** 2 + 1e-30)
+    d_open = jnp.maximum(0.5 * (d_eps_p[0] + d_eps_p[1]) + r, 0.0)
+    return d_open, d_open * jnp.clip(0.5 - 0.5 * half / r, 0.0, 1.0)
+
+
+def _jump(model: Any, opening: Any, opening_y: Any) -> Any:
+    """`band_opening` without spread: the window sums only."""
+    return band_openings(model, opening, opening_y)[0]
+
+
+def crack_band_opening(model: Any) -> Any:
+    """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none)."""
+    return mcc.crack_band_opening(
+        model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
+    )
+
+
+def band_opening(model: Any, opening: Any, spread: bool = True, opening_y: Any = None) -> Any:
+    """Opening w [m] of the tensile band through each particle, rows (n,).
+
+    With a particle lattice (`Model.lattice`), the plastic opening strain times the
+    particle spacing, summed over the particles within `Model.opening_window` of it along
+    x. A localised band, one cell or a few wide, then has the same opening, its
+    displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
+    window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
+    strain times dx (one cell).
+
+    In 2D, ``opening_y`` (`State.opening_y`) is the part of ``opening`` along y: the x
+    part summed along x and the y part summed along y are the two components of the
+    band's jump, w n_x and w n_y for a band of any orientation n (a line along x crosses
+    a band of width b over b / n_x, where the band's strain is n_x^2 w / b), and w is
+    their length. Without it (a strain with no direction, such as a compaction): the
+    smaller of the x and y sums of ``opening``, the sum across a band, not along it.
+    """
+    if not model.lattice:
+        return opening * model.dx
+    return band_openings(model, opening, opening_y)[1 if spread else 0]
+
+
+def band_openings(model: Any, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
+    """`band_opening` without and with ``spread``, from one set of window sums."""
+    k = model.opening_window
+    s = model.lattice_spacing
+    # the sum over the window centred on each particle, then its largest value over the
+    # window: every particle of a band sees the band's whole opening, also near its edges
+    # (without spread: the window sum only, the opening of the band centred there)
+    if model.dim == 1:
+        w = _window(opening * s, k, jnp.add, 0.0, 0)
+        return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
+    if opening_y is None:
+        grid = jnp.reshape(opening * s, model.lattice)
+        w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
+        spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
+        return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
+    parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
+    w = [
+        _window(jnp.reshape(o, model.lattice), k, jnp.add, 0.0, axis)
+        for axis, o in enumerate(parts)
+    ]
+    spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
+    return tuple(
+        jnp.reshape(mcc._sqrt(a[0] * a[0] + a[1] * a[1]), opening.shape) for a in (w, spread)
+    )
+
+
+def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
+    """op (add or maximum) of ``a`` over [i - k, i + k] along ``axis``, padded with
+    ``pad_value``: blocks of 1, 2, 4, ... elements made by doubling and combined along the
+    binary digits of 2 k + 1 (2 log2(2 k + 1) elementwise ops; XLA:CPU's reduce_window
+    takes 2 k + 1 per element: with it a 100 m PST step at dx 0.02 took 1.19 / 1.72 x the
+    step without a lattice for the paper / crack_band slab, with this 1.01 / 1.16 x)."""
+    n = a.shape[axis]
+    pad = [(0, 0)] * a.ndim
+    pad[axis] = (k, k)
+    m = jnp.pad(a, pad, constant_values=pad_value)
+    out, offset, span, rest = None, 0, 1, 2 * k + 1
+    while True:
+        if rest & 1:  # the block of `span` elements at `offset`
+            block = jax.lax.slice_in_dim(m, offset, offset + n, axis=axis)
+            out = block if out is None else op(out, block)
+            offset += span
+        rest >>= 1
+        if not rest:
+            return out
+        size = m.shape[axis]
+        m = op(
+            jax.lax.slice_in_dim(m, 0, size - span, axis=axis),
+            jax.lax.slice_in_dim(m, span, size, axis=axis),
+        )
+        span *= 2
+
+
+def fracture_opening(model: Any) -> Any:
+    """Band opening [m] that marks a slab fracture, per particle.
+
+    With a particle lattice: FRACTURE_OPENING (1 mm), or, with crack-band softening
+    where it is larger, the opening at which the band keeps 1 % of its strength
+    (ln(100) w_c), the same on every grid and for every slab model. Without a lattice
+    (older layouts): FRACTURE_STRAIN x dx for a perfectly plastic slab, 3 w_c with
+    softening.
+    """
+    w_c = crack_band_opening(model)
+    finite = jnp.isfinite(w_c)
+    if not model.lattice:
+        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * model.dx)
+    return jnp.where(
+        finite,
+        jnp.maximum(FRACTURE_OPENING, float(np.log(100.0)) * jnp.where(finite, w_c, 0.0)),
+        FRACTURE_OPENING,
+    )
+
+
+def fracture_strain(model: Any) -> Any:
+    """Opening strain that marks a slab fracture without a lattice (`fracture_opening` / dx)."""
+    return fracture_opening(model) / model.dx
+
+
+def p0_and_band(model: Any, state: Any, band: Any = None) -> tuple[Any, Any]:
+    """(p0, the band's p0) [Pa]: the current consolidation pressure, explicit in the
+    previous step's plastic strains (SinhExpl softening with volumetric plastic strain, xi,
+    and crack-band softening with the band's opening, G_f: `band_opening` for the
+    "crack_band" slab, the opening strain x dx, one cell, for the "paper" slab with a
+    finite G_f), and for the "crack_band" slab every particle's strength as if it had
+    opened, the strength a particle of a band takes on once it yields
+    (`damjax.core.step.constitutive`); both from one band opening. Otherwise the same p0
+    twice."""
+    bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
+    w_c = crack_band_opening(model)
+    eps_pv = state.eps_p[0] + state.eps_p[1]
+    if not (model.crack_band and model.lattice):
+        p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
+        p0 = mcc.softened_p0(p0, eps_pv, model.mcc_xi, bulk)
+        return p0, p0
+    # only particles that opened themselves soften (by more than round-off, OPENED): the
+    # window's sum must not weaken an intact neighbour, which would then yield too and
+    # spread the band over a plateau
+    w = band_opening(model, state.opening, opening_y=state.opening_y) if band is None else band
+    opened = state.opening * model.lattice_spacing > OPENED * w_c
+    p0_band = mcc.softened_p0(model.p0_init * jnp.exp(-w / w_c), eps_pv, model.mcc_xi, bulk)
+    p0_intact = mcc.softened_p0(model.p0_init, eps_pv, model.mcc_xi, bulk)
+    return jnp.where(opened, p0_band, p0_intact), p0_band
 
 
 def strength_field(
@@ -155,7 +433,7 @@ def fractures(
 ) -> list[dict[str, float]]:
     """Slab fractures from the band openings at the end of a run.
 
-    ``opening``: band opening per particle [m] (`damjax.core.step.band_opening`);
+    ``opening``: band opening per particle [m] (`band_opening`);
     ``t_fracture``: the time each particle's band opening reached the fracture opening
     (inf: never). Particles that fractured, closer than ``gap`` [m] along x, are one
     fracture, reported at the particle of its largest opening: ``{x_m, t_s, opening_m}``

@@ -170,8 +170,9 @@ jax.tree_util.register_dataclass(
 def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
     """Cells (nx, ny) where the slab fractured: with a particle lattice (the "crack_band"
     slab) where a particle's band opening reached the fracture opening
-    (`damjax.core.step.fracture_opening`, the same on every grid), else where the cell's
-    mean opening strain reached `damjax.core.step.fracture_strain`."""
+    (`damjax.materials.slab_fracture.fracture_opening`, the same on every grid), else
+    where the cell's mean opening strain reached
+    `damjax.materials.slab_fracture.fracture_strain`."""
     if model.lattice:
         return cm(np.isfinite(np.asarray(final.t_fracture)).astype(float)) > 0.0
     return cm(final.opening) >= float(np.min(np.asarray(fracture_strain(model))))
@@ -182,9 +183,9 @@ def _crown_and_stauchwall(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Crown and stauchwall cells (nx, ny). With a particle lattice (the "crack_band"
     slab) from band openings, fixed in metres: the crown where the tensile band opening
-    reached the fracture opening (`damjax.core.step.fracture_opening`), the stauchwall
+    reached the fracture opening (`damjax.materials.slab_fracture.fracture_opening`), the stauchwall
     where the compressive band closure (the volumetric plastic compaction times the
-    particle spacing, summed across the band as `damjax.core.step.band_opening` does)
+    particle spacing, summed across the band as `damjax.materials.slab_fracture.band_opening` does)
     reached `FRACTURE_OPENING` (1 mm). Without one: the column height changed by more
     than 2 % (thresholds on h, which depend on dx)."""
     if not model.lattice:
