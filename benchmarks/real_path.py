@@ -304,9 +304,8 @@ def plot(path: str, scn: Any, ds: Any, pfts: dict[str, Path], file: Path) -> Non
         ax.set_aspect("equal")
         ax.set_xlabel("easting [m] (EPSG:31287)")
     ax = axes[0]
-    p = prob[::k, ::k]
-    sc = ax.scatter(px[p > 0], py[p > 0], c=p[p > 0], s=1.5, cmap="magma_r", vmin=0, vmax=1,
-                    marker="s", linewidths=0)  # fmt: skip
+    p = np.ma.masked_less_equal(prob[::k, ::k], 0.0)
+    sc = ax.pcolormesh(px, py, p, cmap="magma_r", vmin=0, vmax=1, shading="nearest")
     fig.colorbar(sc, ax=ax, shrink=0.6, label="damjax release probability")
     poly.boundary.plot(ax=ax, color="tab:cyan", lw=1.2)
     bx, by = area.to_map([0, area.length, area.length, 0, 0], [0, 0, area.width, area.width, 0])
