@@ -288,7 +288,7 @@ def _place_release(
             dem,
             dem_file=dem_file,
             margin=float(terrain.get("margin", 10.0)),
-            upslope=terrain.get("upslope"),
+            upslope=terrain.pop("upslope", None),  # re-added after origin (key order)
             thickness_field="" if thickness_given and "thickness_field" not in terrain else field,
         )
     except release_area.ReleaseAreaError as exc:
@@ -495,9 +495,9 @@ def check(
             f"{np.nanmax(slope):.3g} deg: must all be in (0, 90) deg"
         )
         return None, []
-    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(np.radians(slope))
-    frac = float(np.mean(tau <= tau_g))
-    if frac > 0:
+    frac = _overloaded_fraction(params, slope, tau)
+    if frac > 0 and not (terrain is not None and "release" in terrain):
+        # (on a polygon's rectangle the terrain decides it: warn_resolution warns)
         notes.append(
             f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
             f"{100 * frac:.3g} % of the release area (the weak layer fails there under the "
@@ -511,8 +511,29 @@ def check(
     return scn, notes
 
 
+def _overloaded_fraction(params: Any, slope: Any, tau: np.ndarray) -> float:
+    """Share of the cells where tau_p <= rho g h sin(psi) (failing under the slab)."""
+    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(np.radians(slope))
+    return float(np.mean(tau <= tau_g))
+
+
 def warn_resolution(scn: Any) -> None:
-    """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5."""
+    """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5; for a
+    ``terrain.release`` scenario also when the weak layer fails under the slab's weight
+    somewhere in the polygon's rectangle (steep DEM cells: a property of the terrain)."""
+    if scn.terrain is not None and scn.terrain.get("release"):
+        from damjax.scenario.slope_fields import resolve_fields
+
+        slope, _, tau, _ = resolve_fields(scn)
+        frac = _overloaded_fraction(scn.params, slope, tau)
+        if frac > 0:
+            warnings.warn(
+                f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
+                f"{100 * frac:.3g} % of the release polygon's rectangle (DEM cells steeper "
+                f"than {np.degrees(np.arcsin(min(1.0, _min_ratio(scn)))):.3g} deg for the "
+                "mean strength): the weak layer fails there under the slab's weight",
+                stacklevel=3,
+            )
     lam = float(theory.elastic_length(scn.params))
     if scn.setup.dx > lam / 5:
         warnings.warn(
@@ -520,6 +541,13 @@ def warn_resolution(scn: Any) -> None:
             "stress concentration is under-resolved; results may depend on dx",
             stacklevel=3,
         )
+
+
+def _min_ratio(scn: Any) -> float:
+    """Mean strength over rho g h (sin of the angle at which the mean strength fails)."""
+    st = scn.strength or {}
+    mean = float(st.get("mean", st.get("tau_peak", scn.params.tau_peak)))
+    return mean / (float(scn.params.density) * G_ACC * float(scn.params.thickness))
 
 
 register("slope", check, warn_resolution)
