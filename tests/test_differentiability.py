@@ -132,7 +132,12 @@ def test_sweep_equals_a_loop_of_simulate_pst():
             PSTParams(steady_length=4.0, strength_gradient=theta, softening=delta), SETUP
         )
         for r in (results[i], sliced[i]):
-            assert r.summary["final_tip_m"] == ref.summary["final_tip_m"]
+            # a vmapped batch and a single run are two compiled programs: on a GPU their
+            # fusions may round differently, so the tip may differ by one particle
+            spacing = SETUP.dx / SETUP.particles_per_cell
+            assert r.summary["final_tip_m"] == pytest.approx(
+                ref.summary["final_tip_m"], abs=spacing * 1.001
+            )
             np.testing.assert_allclose(r.sigma_xx, ref.sigma_xx, rtol=1e-4, atol=0.05)
             assert r.arrest_position_smooth == pytest.approx(ref.arrest_position_smooth, abs=1e-4)
 
@@ -140,6 +145,8 @@ def test_sweep_equals_a_loop_of_simulate_pst():
 def test_sweep_sharded_over_four_host_devices_equals_unsharded():
     code = textwrap.dedent("""
         import os, json
+        # four CPU host devices, also on a machine with a GPU (the question is the sharding)
+        os.environ["JAX_PLATFORMS"] = "cpu"
         # four devices on a CI machine with two busy cores: an all-reduce may wait for a
         # device's thread for longer than XLA's default 40 s before it aborts the process
         os.environ["XLA_FLAGS"] = ("--xla_force_host_platform_device_count=4 "
