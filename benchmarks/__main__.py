@@ -4,12 +4,14 @@
     python -m benchmarks pst_f32 mpm88   # some cases
     python -m benchmarks --list
     python -m benchmarks gpu [--dry-run] # the prepared GPU check (benchmarks/gpu.py)
+    python -m benchmarks sweep256 slope_large --dry-run  # toy sizes of these cases
 
 Each case prints one JSON object per line on stdout.
 """
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -27,6 +29,10 @@ def main(argv: list[str]) -> int:
             print(f"{name:16s} {(fn.__doc__ or '').strip().splitlines()[0]}")
         print(f"{'gpu':16s} GPU tests and figures in one command (python -m benchmarks gpu -h)")
         return 0
+    env = None
+    if "--dry-run" in argv:  # toy sizes, for cases that read DAMJAX_BENCH_DRY_RUN
+        argv = [a for a in argv if a != "--dry-run"]
+        env = {**os.environ, "DAMJAX_BENCH_DRY_RUN": "1"}
     names = argv or list(CASES)
     unknown = [n for n in names if n not in CASES]
     if unknown:
@@ -34,7 +40,7 @@ def main(argv: list[str]) -> int:
         return 2
     rc = 0
     for name in names:
-        proc = subprocess.run([sys.executable, "-m", "benchmarks.cases", name])
+        proc = subprocess.run([sys.executable, "-m", "benchmarks.cases", name], env=env)
         rc = rc or proc.returncode
     return rc
 

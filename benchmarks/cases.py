@@ -539,6 +539,26 @@ def real_path() -> None:
     rp.main(["--members", os.environ.get("DAMJAX_REAL_PATH_MEMBERS", "16")])
 
 
+@case
+def sweep256() -> None:
+    """256 baseline PSTs (100 m, dx 0.02 m, 3 s, theta 250-1000) in memory-sized batches
+    vs one at a time (--dry-run: a toy batch; benchmarks/throughput.py)."""
+    from benchmarks import throughput as t
+
+    for row in t.sweep256_rows():
+        emit(**row)
+
+
+@case
+def slope_large() -> None:
+    """200 m x 200 m slope, dx 0.1 m, 5 s: one run and a 32-member ensemble (off a GPU a
+    window of steps, extrapolated; --dry-run: a 24 m x 16 m patch; benchmarks/throughput.py)."""
+    from benchmarks import throughput as t
+
+    for row in t.slope_large_rows():
+        emit(**row)
+
+
 def _run(name: str) -> None:
     t0 = time.perf_counter()
     CASES[name]()

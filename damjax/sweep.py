@@ -8,7 +8,11 @@ a leading batch axis of length B (``strength_profile``: (B, m)). The batch share
 layout and one time step (computed from the batch's largest wave speed), so a member
 whose own dt would be larger runs with the batch's smaller dt.
 
-Memory: ``batch_size`` runs the batch in slices of that size with `jax.lax.map`.
+Memory: ``batch_size`` runs the batch in slices of that size with `jax.lax.map`. Without
+it the slice size comes from the compiled program's memory analysis, as an ensemble's
+(`damjax.ensemble`): the whole batch vmapped when XLA's peak estimate fits in
+``memory_fraction`` of the device's free memory, else the largest slice that fits (at
+least one member). `last_plan` holds the choice and the memory figures of the last call.
 Devices: the batch axis is sharded over every device with `jax.sharding`
 (`NamedSharding` over a 1D mesh named "batch"), so the same call uses all GPUs of a
 machine; on several hosts call `jax.distributed.initialize()` first and the mesh spans
@@ -24,7 +28,15 @@ import jax
 import numpy as np
 
 from damjax import pst
-from damjax.core.loop import RunInfo, cpu_compiler_options, run_chunk
+from damjax.core.loop import (
+    MEMORY_FRACTION,
+    RunInfo,
+    cpu_compiler_options,
+    free_memory_bytes,
+    peak_bytes,
+    run_chunk,
+    temp_bytes,
+)
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
 from damjax.validation import ensure_x64, must_text, validate
 
@@ -80,6 +92,58 @@ def member(params_batch: PSTParams, i: int) -> PSTParams:
     return PSTParams(**kw)
 
 
+@dataclasses.dataclass
+class SweepPlan:
+    """How `sweep` cut its batch (per device; `last_plan` after a call).
+
+    Attributes:
+        members: batch members run (B).
+        members_per_device: members each device runs, padding included.
+        slice_size: members per `jax.lax.map` slice on a device (== members_per_device:
+            the whole batch vmapped in one slice).
+        chosen: "memory" (from XLA's estimate) or "given" (``batch_size``).
+        peak_bytes_per_device: XLA's peak estimate of the compiled chunk that ran
+            (None where the backend gives none).
+        peak_bytes_whole_batch: the estimate for the whole batch vmapped (None when
+            ``batch_size`` was given).
+        budget_bytes_per_device: ``memory_fraction`` of the free memory, per device.
+        devices: devices the batch is sharded over.
+    """
+
+    members: int
+    members_per_device: int
+    slice_size: int
+    chosen: str
+    peak_bytes_per_device: int | None
+    peak_bytes_whole_batch: int | None
+    budget_bytes_per_device: int
+    devices: int
+
+    @property
+    def bytes_per_member(self) -> float | None:
+        """Peak estimate of the whole batch vmapped per member on a device [bytes]."""
+        if self.peak_bytes_whole_batch is None:
+            return None
+        return self.peak_bytes_whole_batch / self.members_per_device
+
+
+last_plan: SweepPlan | None = None
+
+
+def _slice_size(per_dev: int, peak: int | None, temp: int | None, budget: int) -> int:
+    """The largest slice of a device's ``per_dev`` members whose estimate fits ``budget``:
+    the arguments and outputs (every member's state) stay, the temporaries shrink in
+    proportion to the slice."""
+    if peak is None or peak <= budget or per_dev <= 1:
+        return per_dev
+    temp = peak if temp is None else temp
+    fixed = peak - temp
+    per_member = temp / per_dev
+    if per_member <= 0:
+        return per_dev
+    return int(max(1, min(per_dev - 1, (budget - fixed) // per_member)))
+
+
 def _mesh_sharding(n_devices: int) -> Any:
     from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
@@ -94,16 +158,21 @@ def sweep(
     batch_size: int | None = None,
     shard: bool = True,
     progress: bool = False,
+    memory_fraction: float = MEMORY_FRACTION,
 ) -> list[pst.PSTResult]:
     """Run a batch of PSTs; returns one `PSTResult` per member (same order).
 
     Args:
         params_batch: `PSTParams` with batched leaves (see the module doc).
         setup: shared numerics.
-        batch_size: run in slices of this many members (`jax.lax.map`), bounding memory.
+        batch_size: run in slices of this many members (`jax.lax.map`), bounding memory;
+            default: from the compiled program's memory analysis (see the module doc).
         shard: shard the batch axis over all devices (a no-op on one device).
         progress: tqdm progress bar over the time chunks (off by default).
+        memory_fraction: share of a device's free memory a slice may use, (0, 1] (only
+            without ``batch_size``).
     """
+    global last_plan
     setup = PSTSetup() if setup is None else setup
     if batch_size is not None and (
         isinstance(batch_size, bool)
@@ -111,6 +180,12 @@ def sweep(
         or batch_size < 1
     ):
         raise ValueError(f"batch_size = {batch_size!r}: {must_text('[1, inf), integers')}")
+    if (
+        isinstance(memory_fraction, bool)
+        or not isinstance(memory_fraction, (int, float, np.floating))
+        or not 0 < memory_fraction <= 1
+    ):
+        raise ValueError(f"memory_fraction = {memory_fraction!r}: {must_text('(0, 1]')}")
     n = batch_size_of(params_batch)
     batch = broadcast_batch(params_batch, n)
     validate(batch, setup, batch=True)
@@ -131,33 +206,62 @@ def sweep(
     def one_chunk(model: Any, state: Any) -> tuple[Any, Any]:
         return run_chunk(model, state, layout.chunk_steps)
 
-    if batch_size is None or batch_size >= n + pad:
-        body = jax.vmap(one_chunk)
-    else:
+    def chunk_program(size: int | None) -> Any:
+        """The jitted chunk over the batch, in `jax.lax.map` slices of ``size`` members
+        per device (None: all of them vmapped)."""
+        if size is None:
+            body = jax.vmap(one_chunk)
+        else:
 
-        def body(models: Any, states: Any) -> tuple[Any, Any]:
-            return jax.lax.map(lambda ms: one_chunk(*ms), (models, states), batch_size=batch_size)
+            def body(models: Any, states: Any) -> tuple[Any, Any]:
+                return jax.lax.map(lambda ms: one_chunk(*ms), (models, states), batch_size=size)
 
-    if n_dev > 1:
-        # each device runs its own members (shard_map): the transfers' batching rule then
-        # scatters into the device's flat grid; under automatic partitioning the flat
-        # (member x node) scatter would be gathered across devices (2 host devices: 2.3x
-        # slower)
-        from jax.sharding import PartitionSpec
+        if n_dev > 1:
+            # each device runs its own members (shard_map): the transfers' batching rule
+            # then scatters into the device's flat grid; under automatic partitioning the
+            # flat (member x node) scatter would be gathered across devices (2 host
+            # devices: 2.3x slower)
+            from jax.sharding import PartitionSpec
 
-        body = jax.shard_map(
-            body,
-            mesh=_mesh_sharding(n_dev).mesh,
-            in_specs=PartitionSpec("batch"),
-            out_specs=PartitionSpec("batch"),
-        )
-    chunk_fn = jax.jit(body, compiler_options=cpu_compiler_options())
+            body = jax.shard_map(
+                body,
+                mesh=_mesh_sharding(n_dev).mesh,
+                in_specs=PartitionSpec("batch"),
+                out_specs=PartitionSpec("batch"),
+            )
+        return jax.jit(body, compiler_options=cpu_compiler_options())
 
     import time
 
     info = RunInfo()
     t0 = time.perf_counter()
-    compiled = chunk_fn.lower(models, states).compile()
+    per_dev = (n + pad) // n_dev
+    budget = int(memory_fraction * free_memory_bytes(jax.devices()[0]) / n_dev)
+    whole = None
+    if batch_size is not None:  # given: the old meaning, slices of batch_size members
+        size = None if batch_size >= n + pad else int(batch_size)
+        compiled = chunk_program(size).lower(models, states).compile()
+        chosen, slice_size = "given", per_dev if size is None else min(size, per_dev)
+    else:
+        compiled = chunk_program(None).lower(models, states).compile()
+        whole = peak_bytes(compiled)
+        slice_size, chosen = per_dev, "memory"
+        for _ in range(3):  # the temporaries shrink about in proportion to the slice
+            new = _slice_size(slice_size, peak_bytes(compiled), temp_bytes(compiled), budget)
+            if new >= slice_size:
+                break
+            slice_size = new
+            compiled = chunk_program(slice_size).lower(models, states).compile()
+    last_plan = SweepPlan(
+        members=n,
+        members_per_device=per_dev,
+        slice_size=slice_size,
+        chosen=chosen,
+        peak_bytes_per_device=peak_bytes(compiled),
+        peak_bytes_whole_batch=whole,
+        budget_bytes_per_device=budget,
+        devices=n_dev,
+    )
     info.compile_time_s = time.perf_counter() - t0
     bar = None
     if progress:
@@ -193,4 +297,4 @@ def sweep(
     return results
 
 
-__all__ = ["sweep", "batch_size_of", "broadcast_batch", "member"]
+__all__ = ["sweep", "SweepPlan", "batch_size_of", "broadcast_batch", "member"]

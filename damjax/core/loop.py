@@ -81,6 +81,58 @@ def compile_chunk(model: Model, state: State, n_steps: int) -> tuple[Any, float]
     return exe, dt
 
 
+MEMORY_FRACTION = 0.5  # of the free memory a batch slice (sweep, ensemble) may use
+
+
+def free_memory_bytes(device: Any) -> int:
+    """Free memory of ``device`` [bytes]: the allocator's limit less what is in use where
+    the backend reports it (GPUs), else the host's available memory (``MemAvailable``),
+    else 4 GiB."""
+    stats = None
+    try:
+        stats = device.memory_stats()
+    except Exception:  # noqa: BLE001 - backends without stats
+        stats = None
+    if stats and "bytes_limit" in stats:
+        return int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 4 << 30
+
+
+def peak_bytes(compiled: Any) -> int | None:
+    """XLA's estimate of a compiled program's peak memory per device [bytes]: arguments,
+    outputs and temporaries less the donated (aliased) buffers; None where the backend
+    gives no memory analysis."""
+    m = _memory_analysis(compiled)
+    if m is None:
+        return None
+    return int(
+        m.argument_size_in_bytes
+        + m.output_size_in_bytes
+        + m.temp_size_in_bytes
+        - m.alias_size_in_bytes
+    )
+
+
+def temp_bytes(compiled: Any) -> int | None:
+    """The temporaries of `peak_bytes` alone (what a smaller batch slice shrinks)."""
+    m = _memory_analysis(compiled)
+    return None if m is None else int(m.temp_size_in_bytes)
+
+
+def _memory_analysis(compiled: Any) -> Any:
+    try:
+        return compiled.memory_analysis()
+    except Exception:  # noqa: BLE001
+        return None
+
+
 def compile_snapshot(snapshot: Snapshot, model: Model, state: State) -> tuple[Any, float]:
     """`snapshot` compiled ahead of time for these shapes, and the compile time [s] (0 when
     cached). Run eagerly, each of its ops compiled on first use inside the timed loop

@@ -19,7 +19,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import distributed, io
-from damjax.core.loop import cpu_compiler_options, run_chunk
+from damjax.core.loop import (
+    MEMORY_FRACTION,
+    cpu_compiler_options,
+    free_memory_bytes,
+    peak_bytes,
+    run_chunk,
+)
 from damjax.core.model import build_slope, make_slope_layout
 from damjax.ensemble.plot import plot_ensemble
 from damjax.ensemble.products import (
@@ -43,7 +49,6 @@ MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # one at a time (Fig. 12a slope, 0.3 s, 2 cores, 2026-11-25: 14 s per member vmapped by 2,
 # 10 s sequential); CPU members run one per device, a host split into one device per core
 # (`damjax ensemble --cpu-devices`), the devices running their members side by side.
-MEMORY_FRACTION = 0.5  # of the free memory a slice may use
 
 
 # --------------------------------------------------------------------------- planning
@@ -74,37 +79,8 @@ def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
     return dataclasses.replace(fine, grid_shape=(px + nx + py, 2 * py + ny), pad=(px, py))
 
 
-def _free_memory_bytes(device: Any) -> int:
-    stats = None
-    try:
-        stats = device.memory_stats()
-    except Exception:  # noqa: BLE001 - backends without stats
-        stats = None
-    if stats and "bytes_limit" in stats:
-        return int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return 4 << 30
-
-
-def _peak_bytes(compiled: Any) -> int | None:
-    try:
-        m = compiled.memory_analysis()
-    except Exception:  # noqa: BLE001
-        return None
-    if m is None:
-        return None
-    return int(
-        m.argument_size_in_bytes
-        + m.output_size_in_bytes
-        + m.temp_size_in_bytes
-        - m.alias_size_in_bytes
-    )
+_free_memory_bytes = free_memory_bytes  # the names this module had (shared with sweep)
+_peak_bytes = peak_bytes
 
 
 # --------------------------------------------------------------------------- the run
