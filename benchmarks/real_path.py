@@ -330,6 +330,9 @@ def plot(path: str, scn: Any, ds: Any, pfts: dict[str, Path], file: Path) -> Non
     ax.plot(*line.xy, color="k", lw=0.6, ls=":", label="thalweg")
     ax.legend(fontsize=7, loc="best")
     ax.set_title("com1DFA runouts", fontsize=9)
+    for ax in axes:
+        ax.xaxis.set_major_locator(plt.MaxNLocator(3))
+        ax.tick_params(labelsize=7)
     fig.tight_layout()
     file.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(file, dpi=80)
