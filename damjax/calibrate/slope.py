@@ -34,7 +34,6 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -126,7 +125,8 @@ def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> M
         )
     delta = jnp.asarray(softening, dt)
     _, u_res = weak_layer.critical_displacements(m.tau_peak, m.stiffness, delta)
-    return eqx.tree_at(lambda q: (q.p0_init, q.softening, q.u_res), m, (p0, delta, u_res))
+    # with_fields: the front width (from u_r) and w_c (from p0) are derived again
+    return m.with_fields(p0_init=p0, softening=delta, u_res=u_res)
 
 
 def particle_damage(model: Model, state: State, width: float = DAMAGE_WIDTH) -> Any:

@@ -254,7 +254,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
         **slab_kw,
-    )
+    ).with_constants()  # front width, w_c: derived once, not every step
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
     u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
     state = State(
@@ -512,7 +512,7 @@ def build_slope(
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
         **slab_kw,
-    )
+    ).with_constants()  # front width, w_c: derived once, not every step
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
     u0 = (f(params.density) * f(params.thickness) / K) * g_t
     state = State(

@@ -9,10 +9,13 @@ and a stacked array costs a slice per row forward and a pad-and-add per row in r
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
+
+from damjax.materials import mcc, weak_layer
 
 # what marks a slab fracture: an opening strain of FRACTURE_STRAIN without a particle
 # lattice (`Model.lattice` = ()), a band opening of FRACTURE_OPENING or more with one
@@ -90,6 +93,36 @@ class Model(eqx.Module):
     # softens with the band opening, needs the lattice), False for "paper" (with a finite
     # G_f it softens with the opening strain x dx, one cell)
     crack_band: bool = eqx.field(static=True, default=False)
+    # constants derived from the fields above, once when the model is built
+    # (`with_constants`; `with_fields` replaces fields and derives them again): the weak
+    # layer's front width [m] (n,) (`damjax.core.step.front_width`) and the crack band's
+    # w_c [m] (`damjax.materials.slab_fracture.crack_band_opening`). None: derived where
+    # they are used, in every step
+    front_width: Any = None
+    band_w_c: Any = None
+
+    def with_constants(self) -> Model:
+        """This model with `front_width` and `band_w_c` derived from its fields."""
+        spacing = self.area0 if len(self.grid_shape) == 1 else jnp.sqrt(self.area0)
+        lam = jnp.sqrt(
+            self.youngs_modulus
+            * self.thickness
+            / ((1.0 - self.poisson * self.poisson) * self.stiffness)
+        )
+        w_c = mcc.crack_band_opening(
+            self.p0_init, self.fracture_energy, self.mcc_m, self.mcc_beta, self.mcc_invariants
+        )
+        return dataclasses.replace(
+            self, front_width=weak_layer.front_width(self.u_res, spacing, lam), band_w_c=w_c
+        )
+
+    def with_fields(self, **changes: Any) -> Model:
+        """This model with fields replaced (``u_res=...``, ``p0_init=...``; traceable) and
+        the derived constants derived again: the way to change a built model."""
+        derived = {"front_width", "band_w_c"} & set(changes)
+        if derived:
+            raise ValueError(f"with_fields: {sorted(derived)} are derived, not set")
+        return dataclasses.replace(self, **changes).with_constants()
 
     @property
     def dim(self) -> int:

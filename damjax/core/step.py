@@ -71,7 +71,10 @@ def slip_and_rate(u: Any, v: Any, dim: int) -> tuple[Any, Any]:
 def front_width(model: Model) -> Any:
     """Slip range [m] across a particle's segment of weak layer near a crack front
     (`damjax.materials.weak_layer.front_width`), from the particle spacing and the
-    elastic length Lambda = sqrt(E h / ((1 - nu^2) K_wl))."""
+    elastic length Lambda = sqrt(E h / ((1 - nu^2) K_wl)); derived once when the model is
+    built (`Model.front_width`)."""
+    if model.front_width is not None:
+        return model.front_width
     spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
     lam = jnp.sqrt(
         model.youngs_modulus

@@ -237,7 +237,10 @@ def _jump(model: Any, opening: Any, opening_y: Any) -> Any:
 
 
 def crack_band_opening(model: Any) -> Any:
-    """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none)."""
+    """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none); derived once
+    when the model is built (``model.band_w_c``)."""
+    if getattr(model, "band_w_c", None) is not None:
+        return model.band_w_c
     return mcc.crack_band_opening(
         model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
     )
