@@ -512,12 +512,14 @@ def ensemble16() -> None:
 
 @case
 def mpm88() -> None:
-    """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers vs Taichi CPU."""
+    """Taichi's mpm88 (2D fluid, 128^2 grid, f32) on damjax transfers (fixed and float
+    P2G sums) vs Taichi on the same backend; 3-200 particles per cell."""
     from benchmarks import mpm88 as m
 
     ti = m.taichi_init(m.n_threads())  # None (peer skipped) if taichi is not importable
-    for n, repeats in ((8192, 5), (32768, 5), (131072, 3)):
-        emit(**m.run_case(n, n_steps=100, repeats=repeats, ti=ti))
+    # the particles-per-cell sweep and the 2 x 2 per cell row; damjax "fixed" and "float"
+    for n, repeats, layout in m.CASE_ROWS:
+        emit(**m.run_case(n, n_steps=100, repeats=repeats, ti=ti, layout=layout))
 
 
 @case

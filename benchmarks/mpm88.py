@@ -11,18 +11,33 @@ nodes of the boundary, dt = 2e-4, float32.
   ``jax.lax.scan``. Absolute positions in metres go in as the displacement ``u`` from
   ``cell0 = 0, frac0 = 0``; dx = 1/128 is a power of two, so ``u * (1/dx)`` is exact and equal to
   Taichi's ``x / dx``.
+  Both P2G accumulations run (``accumulation="fixed"``, deterministic fixed-point sums, the
+  default; ``"float"``, plain float scatter-adds), so the price of determinism shows.
 * Taichi: the example's ``substep`` kernel verbatim (one ``@ti.kernel`` per substep whose four
   top-level loops -- grid reset, P2G, grid update, G2P -- Taichi offloads as four parallel
-  tasks), launched once per substep from Python as the example does, on ``ti.cpu`` with
-  ``cpu_max_num_threads`` equal to the cores JAX uses.
+  tasks), launched once per substep from Python as the example does, on the backend JAX
+  uses: ``ti.cuda`` when ``jax.default_backend()`` is "gpu", else ``ti.cpu`` with
+  ``cpu_max_num_threads`` equal to the cores JAX uses. Without taichi the peer is skipped.
 
-Both start from the same seeded particles: uniform in the example's box [0.2, 0.6]**2, J = 1,
-C = 0 and zero velocity (the example starts at v = (0, -1); the brief asks for rest).
+Both start from the same seeded particles at rest (J = 1, C = 0; the example starts at
+v = (0, -1)): uniform in the example's box [0.2, 0.6]**2 (``layout="random"``, 2621.44 cells,
+so N / 2621.44 particles per cell), or 2 x 2 per cell on a lattice over 51 x 51 cells
+(``layout="lattice"``, N = 10404). Each row reports the particles per cell
+(``particles_per_cell``); a sweep over N on the fixed 128 x 128 grid shows how contention
+for shared nodes (more particles per cell) changes the throughput.
+
+    python -m benchmarks mpm88                      # the case: the rows of `CASE_ROWS`
+    python -m benchmarks.mpm88 --n 8192 131072      # chosen sizes (--lattice: the 2 x 2 row)
+    python -m benchmarks.mpm88 --step               # the damjax time step: fixed vs float
+    python -m benchmarks.mpm88 --runs               # whole pst_f32 and slope runs: the same
 """
 
 from __future__ import annotations
 
+import argparse
 import contextlib
+import functools
+import json
 import os
 import statistics
 import sys
@@ -41,6 +56,18 @@ P_MASS = P_VOL * P_RHO
 GRAVITY = 9.8
 BOUND = 3
 E = 400.0
+BOX_CELLS = (0.4 * N_GRID) ** 2  # cells of the random layout's box [0.2, 0.6]^2
+LATTICE = (26, 51)  # lattice layout: first cell and cells per side (2 x 2 particles each)
+ACCUMULATIONS = ("fixed", "float")
+# (N, repeats, layout) of `python -m benchmarks mpm88`: the particles-per-cell sweep on the
+# fixed 128 x 128 grid (3.1, 12.5, 50, 200 per cell) and the 2 x 2 per cell lattice
+CASE_ROWS = (
+    (8192, 5, "random"),
+    (32768, 5, "random"),
+    (131072, 3, "random"),
+    (524288, 3, "random"),
+    (4 * LATTICE[1] ** 2, 5, "lattice"),
+)
 
 
 def n_threads() -> int:
@@ -60,6 +87,26 @@ def initial_particles(n: int, seed: int = 0) -> dict[str, np.ndarray]:
         C=np.zeros((n, 2, 2), np.float32),
         J=np.ones((n,), np.float32),
     )
+
+
+def lattice_particles(n: int | None = None, seed: int = 0) -> dict[str, np.ndarray]:
+    """2 x 2 particles per cell at the quarter points of 51 x 51 cells (N = 10404), at rest
+    (``n`` must be that N; the order is shuffled with ``seed``)."""
+    c0, m = LATTICE
+    if n is not None and n != 4 * m * m:
+        raise ValueError(f"the lattice layout has {4 * m * m} particles, not {n}")
+    sub = (np.arange(2) + 0.5) / 2
+    g = (np.repeat(np.arange(c0, c0 + m), 2) + np.tile(sub, m)) * DX
+    x = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    x = x[np.random.default_rng(seed).permutation(len(x))]
+    p = initial_particles(len(x), seed)
+    p["x"] = x.astype(np.float32)
+    return p
+
+
+def particles_per_cell(n: int, layout: str = "random") -> float:
+    """Initial particles per occupied cell."""
+    return 4.0 if layout == "lattice" else n / BOX_CELLS
 
 
 def active_particles(n: int, seed: int = 1) -> dict[str, np.ndarray]:
@@ -119,9 +166,12 @@ def _grid_update(grid_m: Any, grid_px: Any, grid_py: Any) -> tuple[Any, Any]:
     return px / m, py / m
 
 
-def damjax_substep(state: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any, Any]:
+def damjax_substep(
+    state: tuple[Any, Any, Any, Any], accumulation: str | None = None
+) -> tuple[Any, Any, Any, Any]:
     """One mpm88 substep on damjax.core.transfer, written as damjax.core.step writes its
-    P2G and G2P for the transfer API present (see `transfer_api`)."""
+    P2G and G2P for the transfer API present (see `transfer_api`); ``accumulation``:
+    "fixed" or "float" (None: the transfer's default)."""
     import jax.numpy as jnp
 
     from damjax.core import transfer
@@ -146,7 +196,9 @@ def damjax_substep(state: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any, Any
             ]
             for a in range(2)
         ]
-        if hasattr(transfer, "p2g_channels"):  # mass and momentum in complex pairs
+        if accumulation is not None:  # deterministic fixed point or float scatter-adds
+            grid_m, *grid_p = transfer.p2g_channels(st, channels, n_nodes, accumulation)
+        elif hasattr(transfer, "p2g_channels"):  # mass and momentum in complex pairs
             grid_m, *grid_p = transfer.p2g_channels(st, channels, n_nodes)
         else:
             grid_m, *grid_p = [transfer.p2g(st, c, n_nodes) for c in channels]
@@ -196,11 +248,12 @@ def damjax_substep(state: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any, Any
     return x, new_v, new_C, J
 
 
-def damjax_runner(n_steps: int, substep=None):
-    """A jitted function advancing the state by n_steps substeps (one lax.scan)."""
+def damjax_runner(n_steps: int, substep=None, accumulation: str | None = None):
+    """A jitted function advancing the state by n_steps substeps (one lax.scan);
+    ``accumulation`` picks the P2G sums of the default substep."""
     import jax
 
-    substep = substep or damjax_substep
+    substep = substep or functools.partial(damjax_substep, accumulation=accumulation)
 
     def run(state):
         def body(s, _):
@@ -216,26 +269,47 @@ def damjax_runner(n_steps: int, substep=None):
 # --------------------------------------------------------------------------------------------
 
 
-def taichi_init(threads: int):
-    """Import and initialise Taichi on the CPU (None if it is not importable).
+def jax_backend() -> str:
+    """JAX's default backend ("cpu", "gpu", ...)."""
+    import jax
+
+    return jax.default_backend()
+
+
+def taichi_init(threads: int, backend: str | None = None):
+    """Import and initialise Taichi on the backend JAX uses: ``ti.cuda`` for "gpu", else
+    ``ti.cpu`` with ``threads`` threads (None if taichi is not importable, or has no such
+    backend here).
 
     Taichi's banner goes to stderr: stdout carries only the benchmark's JSON lines.
     """
+    backend = backend or jax_backend()
     with contextlib.redirect_stdout(sys.stderr):
         try:
             import taichi as ti
         except Exception as e:  # any import failure means "skip the peer"
             sys.stderr.write(f"mpm88: taichi is not importable ({e!r}); peer skipped\n")
             return None
+        kw = dict(arch=ti.cpu, cpu_max_num_threads=threads)
+        if backend == "gpu":
+            kw = dict(arch=ti.cuda)
         ti.init(
-            arch=ti.cpu,
-            cpu_max_num_threads=threads,
+            **kw,
             default_fp=ti.f32,
             offline_cache=False,  # measure the real JIT compile time
             random_seed=0,
             log_level=ti.WARN,
         )
+        arch = ti.lang.impl.current_cfg().arch
+        if backend == "gpu" and arch != ti.cuda:  # Taichi fell back to the CPU
+            sys.stderr.write("mpm88: taichi has no CUDA backend here; peer skipped\n")
+            return None
     return ti
+
+
+def taichi_arch_name(ti) -> str:
+    """ "taichi-cuda" or "taichi-cpu", for the row's ``peer``."""
+    return "taichi-cuda" if ti.lang.impl.current_cfg().arch == ti.cuda else "taichi-cpu"
 
 
 def make_taichi_mpm88(ti, n_particles: int):
@@ -322,6 +396,10 @@ def make_taichi_mpm88(ti, n_particles: int):
 # --------------------------------------------------------------------------------------------
 
 
+def _median(x: list[float]) -> float:
+    return statistics.median(x)
+
+
 def run_case(
     n_particles: int,
     n_steps: int = 100,
@@ -329,23 +407,40 @@ def run_case(
     seed: int = 0,
     ti=None,
     runner=None,
+    accumulations: tuple[str, ...] = ACCUMULATIONS,
+    layout: str = "random",
 ) -> dict:
-    """Time damjax and (if ti is given) Taichi alternately; return one JSON row.
+    """Time damjax (each of ``accumulations``) and, if ti is given, Taichi, alternately;
+    return one JSON row. The first accumulation is the row's headline (``wall_time_s``,
+    ``ratio``); every one has its ``damjax_<acc>_*`` fields, and ``fixed_over_float``
+    compares the two.
 
-    ``runner(n_steps)`` builds the jitted damjax function (default ``damjax_runner``; the
-    transfer experiments pass their variants).
+    ``runner(n_steps)`` builds the jitted damjax function instead (the transfer
+    experiments pass their variants; ``accumulations`` is then ignored).
     """
     import jax
 
     threads = n_threads()
-    p0 = initial_particles(n_particles, seed)
+    p0 = (
+        lattice_particles(n_particles, seed)
+        if layout == "lattice"
+        else initial_particles(n_particles, seed)
+    )
+    n_particles = len(p0["x"])
 
     # damjax: AOT compile (timed), then warm runs
     s0 = to_soa(p0)
     jax.block_until_ready(s0)
-    t0 = time.perf_counter()
-    run = (runner or damjax_runner)(n_steps).lower(s0).compile()
-    compile_time = time.perf_counter() - t0
+    variants = (
+        {"experiment": runner}
+        if runner is not None
+        else {a: functools.partial(damjax_runner, accumulation=a) for a in accumulations}
+    )
+    runs, compile_times = {}, {}
+    for name, make in variants.items():
+        t0 = time.perf_counter()
+        runs[name] = make(n_steps).lower(s0).compile()
+        compile_times[name] = time.perf_counter() - t0
 
     sim = None
     peer_compile = None
@@ -358,12 +453,16 @@ def run_case(
         ti.sync()
         peer_compile = time.perf_counter() - t0
 
-    walls, peer_walls = [], []
-    out = peer_out = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(run(s0))
-        walls.append(time.perf_counter() - t0)
+    walls: dict[str, list[float]] = {name: [] for name in runs}
+    peer_walls: list[float] = []
+    outs: dict[str, Any] = {}
+    peer_out = None
+    for r in range(repeats):
+        order = list(runs) if r % 2 == 0 else list(runs)[::-1]  # alternate who goes first
+        for name in order:
+            t0 = time.perf_counter()
+            outs[name] = jax.block_until_ready(runs[name](s0))
+            walls[name].append(time.perf_counter() - t0)
         if sim is not None:
             sim.load(p0)
             ti.sync()
@@ -374,9 +473,56 @@ def run_case(
             peer_walls.append(time.perf_counter() - t0)
             peer_out = sim.state()
 
-    # the harder agreement check (untimed): same compiled function, other initial state
+    head = next(iter(runs))
+    out = outs[head]
+    wall = _median(walls[head])
+    row: dict = dict(
+        case="mpm88",
+        n_particles=n_particles,
+        particles_per_cell=round(particles_per_cell(n_particles, layout), 3),
+        layout=layout,
+        n_steps=n_steps,
+        dtype="float32",
+        n_grid=N_GRID,
+        backend=jax_backend(),
+        accumulation=head,
+        compile_time_s=round(compile_times[head], 3),
+        wall_time_s=round(wall, 4),
+        wall_time_min_s=round(min(walls[head]), 4),
+        particle_steps_per_s=round(n_particles * n_steps / wall),
+        repeats=repeats,
+        threads=threads,
+        transfer_api=transfer_api() if runner is None else "experiment",
+    )
+    for name in runs:
+        if name == "experiment":
+            continue
+        w = _median(walls[name])
+        row[f"damjax_{name}_wall_time_s"] = round(w, 4)
+        row[f"damjax_{name}_wall_time_min_s"] = round(min(walls[name]), 4)
+        row[f"damjax_{name}_particle_steps_per_s"] = round(n_particles * n_steps / w)
+        row[f"damjax_{name}_compile_time_s"] = round(compile_times[name], 3)
+    x_dj = np.asarray(out[0]).T
+    if not np.all(np.isfinite(x_dj)):
+        raise RuntimeError("mpm88 (damjax): non-finite positions")
+    if "fixed" in runs and "float" in runs:
+        row["fixed_over_float"] = round(_median(walls["fixed"]) / _median(walls["float"]), 3)
+        row["fixed_float_max_abs_diff"] = float(
+            np.max(np.abs(np.asarray(outs["fixed"][0]) - np.asarray(outs["float"][0])))
+        )
+    if "fixed" in runs:
+        # determinism, untimed: the particles stored in reverse order give the same bits
+        rev = jax.block_until_ready(runs["fixed"](to_soa({k: v[::-1] for k, v in p0.items()})))
+        row["fixed_reordered_bitwise_equal"] = bool(
+            all(
+                np.array_equal(np.asarray(a)[..., ::-1], np.asarray(b))
+                for a, b in zip(outs["fixed"], rev, strict=True)
+            )
+        )
+
+    # the harder agreement check (untimed): same compiled functions, other initial state
     active = active_particles(n_particles, seed + 1)
-    active_out = jax.block_until_ready(run(to_soa(active)))
+    active_outs = {name: jax.block_until_ready(f(to_soa(active))) for name, f in runs.items()}
     active_peer = None
     if sim is not None:
         sim.load(active)
@@ -384,24 +530,6 @@ def run_case(
             sim.substep()
         active_peer = sim.state()
 
-    wall = statistics.median(walls)
-    row: dict = dict(
-        case="mpm88",
-        n_particles=n_particles,
-        n_steps=n_steps,
-        dtype="float32",
-        n_grid=N_GRID,
-        compile_time_s=round(compile_time, 3),
-        wall_time_s=round(wall, 4),
-        wall_time_min_s=round(min(walls), 4),
-        particle_steps_per_s=round(n_particles * n_steps / wall),
-        repeats=repeats,
-        threads=threads,
-        transfer_api=transfer_api() if runner is None else "experiment",
-    )
-    x_dj = np.asarray(out[0]).T
-    if not np.all(np.isfinite(x_dj)):
-        raise RuntimeError("mpm88 (damjax): non-finite positions")
     if sim is None:
         row.update(
             peer=None,
@@ -411,25 +539,27 @@ def run_case(
             state_max_abs_diff=None,
         )
         return row
-    peer_wall = statistics.median(peer_walls)
+    peer_wall = _median(peer_walls)
     diff_x = float(np.max(np.abs(x_dj - peer_out["x"])))
     diff_v = float(np.max(np.abs(np.asarray(out[1]).T - peer_out["v"])))
     diff_J = float(np.max(np.abs(np.asarray(out[3]) - peer_out["J"])))
     moved = float(np.max(np.abs(peer_out["x"] - p0["x"])))
-    act_x = float(np.max(np.abs(np.asarray(active_out[0]).T - active_peer["x"])))
-    act_J = float(np.max(np.abs(np.asarray(active_out[3]) - active_peer["J"])))
+    act_x = max(
+        float(np.max(np.abs(np.asarray(a[0]).T - active_peer["x"]))) for a in active_outs.values()
+    )
+    act_J = float(np.max(np.abs(np.asarray(active_outs[head][3]) - active_peer["J"])))
     act_dJ = float(np.max(np.abs(active_peer["J"] - 1.0)))
     # 100 substeps from the same state: float32 rounding (and Taichi's unordered atomic adds)
     # keeps the two well within 1e-3 m (~0.13 cell) of each other; a wrong transfer or
     # boundary condition is off by far more (the particles fall ~ 2e-3 m in 100 substeps
-    # and move up to 2e-2 m in the active check).
+    # and move up to 2e-2 m in the active check). Every accumulation is checked.
     for name, d in (("free fall", diff_x), ("active", act_x)):
         if not d < 1e-3:
             raise RuntimeError(
                 f"mpm88: damjax and Taichi disagree after {n_steps} substeps ({name}): {d}"
             )
     row.update(
-        peer="taichi-cpu",
+        peer=taichi_arch_name(ti),
         peer_version=".".join(map(str, ti.__version__)),
         peer_wall_time_s=round(peer_wall, 4),
         peer_wall_time_min_s=round(min(peer_walls), 4),
@@ -444,4 +574,183 @@ def run_case(
         active_state_max_abs_diff_J=act_J,
         active_max_abs_J_minus_1=act_dJ,
     )
+    for name in runs:
+        if name != "experiment":
+            row[f"ratio_{name}"] = round(peer_wall / _median(walls[name]), 3)
     return row
+
+
+# --------------------------------------------------------------------------------------------
+# the damjax time step: fixed against float accumulation
+# --------------------------------------------------------------------------------------------
+
+
+def step_rows(cases: tuple[str, ...] = ("pst", "slope"), rounds: int = 7) -> list[dict]:
+    """The damjax time step (`damjax.core.loop.run_chunk`) with ``accumulation`` "fixed"
+    and "float", compiled once each and timed alternately (``rounds`` rounds of a
+    500-step chunk for the 1D baseline PST, 50 steps for the Fig. 12a slope): wall and
+    process CPU time per step, medians and minima, and the fixed / float ratio."""
+    import dataclasses
+
+    import jax
+
+    from damjax import PSTParams, PSTSetup
+    from damjax.core import loop
+    from damjax.core.model import build, build_slope, make_layout, make_slope_layout
+    from damjax.slope import generic
+
+    def pst(acc: str):
+        p, s = PSTParams(), PSTSetup(accumulation=acc)
+        return (*build(p, s, make_layout(p, s)), 500)
+
+    def slope(acc: str):
+        case = generic.GenericSlopeCase(duration=2.0, particles_per_cell=1)
+        params, psi, tau = (
+            generic.fig12_params(),
+            generic.slope_field(case),
+            generic.strength_field(case),
+        )
+        start = case.start if case.start is not None else generic.weak_spot(case, tau)
+        setup = dataclasses.replace(generic.setup_of(case, start), accumulation=acc)
+        layout = make_slope_layout(params, setup, float(np.max(psi)))
+        return (*build_slope(params, setup, layout, psi, tau)[:2], 50)
+
+    rows = []
+    for name in cases:
+        exes = {}
+        for acc in ACCUMULATIONS:
+            model, state, n = {"pst": pst, "slope": slope}[name](acc)
+            exe = loop.compile_chunk(model, state, n)[0]
+            jax.block_until_ready(exe(model, jax.tree.map(jax.numpy.copy, state)))
+            exes[acc] = (exe, model, state, n)
+        wall: dict[str, list[float]] = {a: [] for a in exes}
+        cpu: dict[str, list[float]] = {a: [] for a in exes}
+        for r in range(rounds):
+            for acc in list(exes) if r % 2 == 0 else list(exes)[::-1]:
+                exe, model, state, n = exes[acc]
+                s = jax.block_until_ready(jax.tree.map(jax.numpy.copy, state))
+                t0, c0 = time.perf_counter(), time.process_time()
+                jax.block_until_ready(exe(model, s))  # the chunk donates its state
+                wall[acc].append((time.perf_counter() - t0) / n * 1e6)
+                cpu[acc].append((time.process_time() - c0) / n * 1e6)
+        n_particles = int(exes["fixed"][2].u.shape[-1])
+        row = dict(case=f"mpm88_step_{name}", n_particles=n_particles, rounds=rounds)
+        for acc in exes:
+            row[f"{acc}_us_per_step"] = round(_median(wall[acc]), 1)
+            row[f"{acc}_us_per_step_min"] = round(min(wall[acc]), 1)
+            row[f"{acc}_cpu_us_per_step"] = round(_median(cpu[acc]), 1)
+        row["fixed_over_float"] = round(_median(wall["fixed"]) / _median(wall["float"]), 3)
+        row["fixed_over_float_min"] = round(min(wall["fixed"]) / min(wall["float"]), 3)
+        row["fixed_over_float_cpu"] = round(_median(cpu["fixed"]) / _median(cpu["float"]), 3)
+        rows.append(row)
+    return rows
+
+
+def run_rows(rounds: int = 4, cases: tuple[str, ...] = ("pst_f32", "slope")) -> list[dict]:
+    """Whole runs, "fixed" and "float" alternated in one process (the order flips every
+    round), after one warm-up run each (compilation): the baseline PST of ``python -m
+    benchmarks pst_f32`` and the Fig. 12a slope of ``python -m benchmarks slope``; wall
+    times from the runs' summaries (time loop only), medians, minima and the ratio."""
+    import dataclasses
+
+    from damjax import PSTParams, PSTSetup, simulate_pst, simulate_slope
+    from damjax.slope import generic
+
+    def pst(acc: str) -> dict:
+        s = simulate_pst(PSTParams(), PSTSetup(accumulation=acc)).summary
+        return dict(
+            wall=s["wall_time_s"],
+            n=s["n_particles"],
+            steps=s["n_steps"],
+            arrest_position_m=s["arrest_position_m"],
+            max_crack_speed_over_cs=s["max_crack_speed_over_cs"],
+        )
+
+    case = generic.GenericSlopeCase(duration=2.0, particles_per_cell=1)
+    params, psi, tau = (
+        generic.fig12_params(),
+        generic.slope_field(case),
+        generic.strength_field(case),
+    )
+    start = case.start if case.start is not None else generic.weak_spot(case, tau)
+
+    def slope(acc: str) -> dict:
+        setup = dataclasses.replace(generic.setup_of(case, start), accumulation=acc)
+        s = simulate_slope(params, setup, slope_deg=psi, tau_peak=tau).summary
+        return dict(
+            wall=s["wall_time_s"],
+            n=s["n_particles"],
+            steps=s["n_steps"],
+            release_area_m2=s["release_area_m2"],
+            upslope_arrest_distance_m=s["upslope_arrest_distance_m"],
+        )
+
+    rows = []
+    for name in cases:
+        fn = {"pst_f32": pst, "slope": slope}[name]
+        first = {acc: fn(acc) for acc in ACCUMULATIONS}  # compile + warm
+        walls: dict[str, list[float]] = {acc: [] for acc in ACCUMULATIONS}
+        cpus: dict[str, list[float]] = {acc: [] for acc in ACCUMULATIONS}
+        for r in range(rounds):
+            for acc in ACCUMULATIONS if r % 2 == 0 else ACCUMULATIONS[::-1]:
+                c0 = time.process_time()
+                walls[acc].append(fn(acc)["wall"])
+                cpus[acc].append(time.process_time() - c0)  # the whole call, both threads
+        row = dict(
+            case=f"accumulation_{name}",
+            n_particles=first["fixed"]["n"],
+            n_steps=first["fixed"]["steps"],
+            rounds=rounds,
+        )
+        for acc in ACCUMULATIONS:
+            row[f"{acc}_wall_time_s"] = [round(w, 3) for w in walls[acc]]
+            row[f"{acc}_median_s"] = round(_median(walls[acc]), 3)
+            row[f"{acc}_diagnostics"] = {
+                k: v for k, v in first[acc].items() if k not in ("wall", "n", "steps")
+            }
+        row["fixed_over_float"] = round(_median(walls["fixed"]) / _median(walls["float"]), 3)
+        row["fixed_over_float_min"] = round(min(walls["fixed"]) / min(walls["float"]), 3)
+        for acc in ACCUMULATIONS:
+            row[f"{acc}_cpu_time_s"] = [round(c, 2) for c in cpus[acc]]
+        row["fixed_over_float_cpu"] = round(_median(cpus["fixed"]) / _median(cpus["float"]), 3)
+        rows.append(row)
+        print(json.dumps(row), file=sys.stderr, flush=True)  # progress
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks.mpm88", description=__doc__.split("\n")[0]
+    )
+    ap.add_argument("--n", type=int, nargs="*", help="particle counts (random layout)")
+    ap.add_argument("--lattice", action="store_true", help="the 2 x 2 particles per cell row")
+    ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument("--no-peer", action="store_true", help="skip Taichi")
+    ap.add_argument("--step", action="store_true", help="damjax's own time step, fixed vs float")
+    ap.add_argument(
+        "--runs", action="store_true", help="whole pst_f32 and slope runs, fixed vs float"
+    )
+    ap.add_argument("--rounds", type=int, default=None, help="rounds of --step / --runs")
+    ap.add_argument("--cases", nargs="*", default=None, help="--step / --runs: pst and/or slope")
+    args = ap.parse_args(argv)
+    if args.step or args.runs:
+        names = args.cases or ["pst", "slope"]
+        rows = step_rows(tuple(names), rounds=args.rounds or 7) if args.step else []
+        runs = tuple("pst_f32" if c == "pst" else c for c in names)
+        rows += run_rows(rounds=args.rounds or 4, cases=runs) if args.runs else []
+        for row in rows:
+            print(json.dumps(row), flush=True)
+        return 0
+    ti = None if args.no_peer else taichi_init(n_threads())
+    rows = [(n, args.repeats or (5 if n <= 32768 else 3), "random") for n in (args.n or [])]
+    if args.lattice:
+        rows.append((4 * LATTICE[1] ** 2, args.repeats or 5, "lattice"))
+    for n, repeats, layout in rows or CASE_ROWS:
+        print(
+            json.dumps(run_case(n, n_steps=100, repeats=repeats, ti=ti, layout=layout)), flush=True
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

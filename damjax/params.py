@@ -140,6 +140,12 @@ class PSTSetup:
             random tensile-strength field; its measured status is in docs/model/slab.md).
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band";
             the same field on every dx).
+        accumulation: how the particle-to-grid sums are added
+            (`damjax.core.transfer.p2g_channels`): "fixed" (the default: fixed-point
+            integers, deterministic, independent of the particles' order; about float32
+            round-off or finer relative to the largest contribution) or "float" (plain
+            float scatter-adds: on a GPU their order, hence the last bits, varies between
+            identical runs).
     """
 
     length: float = 100.0
@@ -157,6 +163,7 @@ class PSTSetup:
     mcc_invariants: str = "3d"
     slab_fracture: str = "paper"
     seed: int = 0
+    accumulation: str = "fixed"
 
     def __post_init__(self) -> None:
         _normalise_dtype(self)
@@ -195,6 +202,8 @@ class SlopeSetup:
             "crack_band" (see `PSTSetup`; the strength field is drawn over length x width;
             a 30 m x 8 m slope on dx 0.125 m runs 1.4-1.7 x longer with it).
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band").
+        accumulation: particle-to-grid sums, "fixed" (deterministic, the default) or
+            "float" (see `PSTSetup`).
     """
 
     length: float = 50.0
@@ -210,6 +219,7 @@ class SlopeSetup:
     mcc_invariants: str = "3d"
     slab_fracture: str = "paper"
     seed: int = 0
+    accumulation: str = "fixed"
 
     def __post_init__(self) -> None:
         _normalise_dtype(self)

@@ -30,6 +30,7 @@ from damjax.constants import (
     P0_RULES,
     SLAB_FRACTURE_MODELS,
 )
+from damjax.core.transfer import ACCUMULATIONS
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup, SlopeSetup
 
 
@@ -82,7 +83,7 @@ SETUP_RULES: dict[str, tuple[Any, str]] = {
 
 
 # API fields that `damjax pst` has no flag for (scenario files and the API only)
-NO_CLI_FLAG = ("slope_profile", "p0_rule", "mcc_invariants")
+NO_CLI_FLAG = ("slope_profile", "p0_rule", "mcc_invariants", "accumulation")
 
 
 def flag(name: str) -> str:
@@ -273,6 +274,7 @@ SETUP_CHOICES: dict[str, tuple[str, ...]] = {
     "mcc_invariants": MCC_INVARIANTS,
     "dtype": DTYPES,
     "slab_fracture": SLAB_FRACTURE_MODELS,
+    "accumulation": ACCUMULATIONS,  # P2G sums (damjax.core.transfer.p2g_channels)
 }
 
 
@@ -544,7 +546,7 @@ def slope_problems(
     setup_out = field_problems(
         setup,
         ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps", "seed"),
-        ("dtype", "p0_rule", "mcc_invariants", "slab_fracture"),
+        ("dtype", "p0_rule", "mcc_invariants", "slab_fracture", "accumulation"),
         with_flags=False,
     )
     if setup_out:  # the checks below need a valid grid

@@ -253,6 +253,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
+        accumulation=setup.accumulation,
         **slab_kw,
     ).with_constants()  # front width, w_c: derived once, not every step
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
@@ -511,6 +512,7 @@ def build_slope(
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
+        accumulation=setup.accumulation,
         **slab_kw,
     ).with_constants()  # front width, w_c: derived once, not every step
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)

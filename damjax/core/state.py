@@ -93,6 +93,9 @@ class Model(eqx.Module):
     # softens with the band opening, needs the lattice), False for "paper" (with a finite
     # G_f it softens with the opening strain x dx, one cell)
     crack_band: bool = eqx.field(static=True, default=False)
+    # how P2G adds the particles' contributions (`damjax.core.transfer.p2g_channels`):
+    # "fixed" (deterministic fixed point) or "float" (plain float scatter-adds)
+    accumulation: str = eqx.field(static=True, default="fixed")
     # constants derived from the fields above, once when the model is built
     # (`with_constants`; `with_fields` replaces fields and derives them again): the weak
     # layer's front width [m] (n,) (`damjax.core.step.front_width`) and the crack band's

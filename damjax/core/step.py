@@ -166,11 +166,19 @@ def step(model: Model, state: State) -> State:
     acc = model.g_tangent - (J * k_sec * intact / (model.density * model.thickness)) * state.u
 
     # 2. P2G
-    st = transfer.stencil(model.cell0, model.frac0, state.u, dx, model.grid_shape, model.periodic)
     sig = stress_tensor(state.sigma, dim)
     c_sig = dt * inv_d * model.thickness * model.area0
     affine = [[m * state.C[a, b] - c_sig * sig[a][b] for b in range(dim)] for a in range(dim)]
     v_star = state.v + dt * acc
+    fcap = (1.0 - intact) * (m * model.friction * model.g_normal)
+    u_p2g = state.u
+    if model.accumulation == "fixed":
+        # the particles' P2G factors computed once, into buffers: XLA:CPU would recompute
+        # their arithmetic in every 64-bit fixed-point row (`transfer.materialise`)
+        v_star, affine, fcap, u_p2g = transfer.materialise(
+            (v_star, affine, fcap, u_p2g), jnp.isfinite(dt)
+        )
+    st = transfer.stencil(model.cell0, model.frac0, u_p2g, dx, model.grid_shape, model.periodic)
     n_nodes = model.n_nodes
     S = len(st.w)
     mass_rows = [st.w[k] * m for k in range(S)]
@@ -184,10 +192,21 @@ def step(model: Model, state: State) -> State:
                 q = q + affine[a][b] * st.dpos[k][b]
             rows.append(st.w[k] * q)
         mom_rows.append(rows)
-    fcap = (1.0 - intact) * (m * model.friction * model.g_normal)
     cap_rows = [st.w[k] * fcap for k in range(S)]
-    # mass, momentum and cap in pairs through complex scatters (half the scatters)
-    grids = transfer.p2g_channels(st, [mass_rows, *mom_rows, cap_rows], n_nodes)
+    # mass, momentum and cap in pairs through complex scatters (half the scatters),
+    # deterministic fixed-point sums unless model.accumulation is "float"; their scales
+    # come from per-particle bounds of the rows (w <= 1, |dpos| <= 1.5 dx), cheaper than
+    # the maxima of the rows themselves
+    mom_bounds = [
+        jnp.abs(m * v_star[a]) + (1.5 * dx) * sum(jnp.abs(x) for x in affine[a]) for a in range(dim)
+    ]
+    grids = transfer.p2g_channels(
+        st,
+        [mass_rows, *mom_rows, cap_rows],
+        n_nodes,
+        model.accumulation,
+        bounds=[m, *mom_bounds, fcap],
+    )
     grid_mass, grid_mom, grid_cap = grids[0], grids[1 : 1 + dim], grids[1 + dim]
 
     # named for the reverse pass: `integrate_pure` keeps these small grid arrays per step

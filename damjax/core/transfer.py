@@ -15,16 +15,29 @@ does, so `p2g_channels` scatters two real channels as the real and imaginary par
 complex row: the sums are the same float additions, done in half the scatters; likewise
 `g2p_channels` gathers two grid fields in one complex gather. Under `jax.vmap` (sweeps),
 the scatters and gathers run over all members' grids at once (a batching rule, below).
+
+P2G sums are deterministic by default (``accumulation="fixed"``, `p2g_channels`): each
+channel is quantised to integers on a power-of-two scale fixed by its largest magnitude,
+and the integers are added exactly, so neither the order of the particles nor the order in
+which a device applies the adds changes a bit of the result. ``"float"`` is the plain
+float scatter-add (on a GPU: float atomics in a varying order).
 """
 
 from __future__ import annotations
 
 import functools
 import itertools
+import math
 from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+# how P2G adds the particles' contributions (`p2g_channels`): "fixed" (the default,
+# deterministic) or "float" (plain float scatter-adds, order-dependent on a GPU)
+ACCUMULATIONS = ("fixed", "float")
 
 
 def offsets(dim: int) -> list[tuple[int, ...]]:
@@ -115,23 +128,39 @@ def _member_offsets(axis_size: int, n_nodes: int, ndim: int, dtype: Any) -> Any:
     return jnp.reshape(off, (axis_size,) + (1,) * (ndim - 1))
 
 
-@functools.cache
-def _scatter_add(n_nodes: int) -> Any:
-    def plain(grid: Any, idx: Any, vals: Any) -> Any:
-        return grid.at[idx].add(vals)
+def _plain_scatter(grid: Any, idx: Any, vals: Any) -> Any:
+    return grid.at[idx].add(vals)
 
-    flat = jax.custom_batching.custom_vmap(plain)
+
+@functools.cache
+def _flat_scatter(n_nodes: int) -> Any:
+    """`grid.at[idx].add(vals)` whose batching rule is one flat scatter over the members'
+    grids (no derivative rule: `_scatter_add` adds it; the fixed-point path has its own)."""
+    flat = jax.custom_batching.custom_vmap(_plain_scatter)
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any, vals: Any) -> Any:
-        grid, idx, vals = (
-            _batched(x, b, axis_size) for x, b in zip((grid, idx, vals), in_batched, strict=True)
-        )
-        total = axis_size * n_nodes
-        ok = (idx >= 0) & (idx < n_nodes)
-        g = jnp.where(ok, idx + _member_offsets(axis_size, n_nodes, idx.ndim, idx.dtype), total)
-        out = grid.reshape(-1).at[g.ravel()].add(vals.ravel(), mode="drop")
-        return out.reshape(axis_size, n_nodes), True
+        # 64-bit carriers of the fixed-point sums (int64, complex128) may reach this rule
+        # outside the caller's x64 scope (a vmapped scan batches its body later)
+        with jax.enable_x64(True):
+            grid, idx, vals = (
+                _batched(x, b, axis_size)
+                for x, b in zip((grid, idx, vals), in_batched, strict=True)
+            )
+            total = axis_size * n_nodes
+            ok = (idx >= 0) & (idx < n_nodes)
+            off = _member_offsets(axis_size, n_nodes, idx.ndim, idx.dtype)
+            g = jnp.where(ok, idx + off, total)
+            out = grid.reshape(-1).at[g.ravel()].add(vals.ravel(), mode="drop")
+            return out.reshape(axis_size, n_nodes), True
+
+    return flat
+
+
+@functools.cache
+def _scatter_add(n_nodes: int) -> Any:
+    plain = _plain_scatter
+    flat = _flat_scatter(n_nodes)
 
     @jax.custom_jvp
     def scatter(grid: Any, idx: Any, vals: Any) -> Any:
@@ -173,8 +202,50 @@ def _take(n_nodes: int) -> Any:
     return take
 
 
-def p2g(st: Stencil, rows: Any, n_nodes: int) -> Any:
-    """Scatter-add per-node contributions (S rows of (n,)) to a flat grid (n_nodes,)."""
+def materialise(tree: Any, ok: Any) -> Any:
+    """``tree`` (float arrays) if ``ok`` (a scalar bool) is true, else NaN in its shapes; on
+    a CPU a conditional, whose operands XLA computes into buffers (elsewhere ``tree``).
+
+    A fusion barrier for XLA:CPU, which otherwise recomputes a per-particle value's whole
+    arithmetic in every fusion that reads it, at the vector width of that fusion's widest
+    type: the 64-bit rows of the fixed-point P2G (`p2g_channels`) halve it. The step passes
+    its particles' P2G factors with ``ok`` = a finite time step (with a non-finite dt they
+    are NaN or inf anyway). An ``ok`` that XLA can evaluate at compile time, or one batched
+    by `jax.vmap`, turns the conditional into a select and the barrier goes (the values
+    stay right). Not on GPUs, where a conditional costs a host round trip per step.
+    Measured: docs/performance/transfers.md.
+    """
+
+    def barrier(t: Any) -> Any:
+        nan = lambda t: jax.tree.map(lambda x: jnp.full_like(x, jnp.nan), t)  # noqa: E731
+        return lax.cond(ok, lambda t: t, nan, t)
+
+    return lax.platform_dependent(tree, cpu=barrier, default=lambda t: t)
+
+
+def _check_accumulation(accumulation: str) -> None:
+    if accumulation not in ACCUMULATIONS:
+        raise ValueError(
+            f"accumulation = {accumulation!r}: must be one of "
+            + ", ".join(repr(a) for a in ACCUMULATIONS)
+            + " (PSTSetup.accumulation / SlopeSetup.accumulation: 'fixed' adds the "
+            "particle-to-grid sums in deterministic fixed point, 'float' in plain float "
+            "scatter-adds)"
+        )
+
+
+def p2g(st: Stencil, rows: Any, n_nodes: int, accumulation: str = "fixed") -> Any:
+    """Scatter-add per-node contributions (S rows of (n,)) to a flat grid (n_nodes,).
+
+    ``accumulation``: "fixed" (default, deterministic) or "float"; see `p2g_channels`.
+    """
+    _check_accumulation(accumulation)
+    if accumulation == "fixed":
+        return _p2g_fixed(int(n_nodes))(tuple(st.idx), (tuple(rows),), (None,))[0]
+    return _p2g_float(st, rows, n_nodes)
+
+
+def _p2g_float(st: Stencil, rows: Any, n_nodes: int) -> Any:
     scatter = _scatter_add(int(n_nodes))
     grid = jnp.zeros((n_nodes,), rows[0].dtype)
     for k in range(len(st.idx)):
@@ -182,26 +253,190 @@ def p2g(st: Stencil, rows: Any, n_nodes: int) -> Any:
     return grid
 
 
-def p2g_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
+def p2g_channels(
+    st: Stencil,
+    channels: Any,
+    n_nodes: int,
+    accumulation: str = "fixed",
+    bounds: Any = None,
+) -> list[Any]:
     """`p2g` of several channels (each S rows of (n,)): a list of flat grids (n_nodes,).
 
-    Channels go in pairs through one complex scatter-add each (real part the first,
-    imaginary part the second): per element a complex scatter costs about what a real one
-    does on XLA:CPU (micro-benchmark, 10 000 particles, 3 channels x 3 rows: 82 -> 63 us
-    per step; 2D slope step 43.7 -> 40.1 ms; no gain in the 1D step, where building the
-    complex rows costs what the saved scatters did; benchmarks/README.md), and each part is
-    summed in its own precision, in the same order, so the grids equal `p2g`'s. An odd
-    channel out uses `p2g`.
+    ``accumulation="fixed"`` (the default) is deterministic: the grids do not depend on the
+    order of the particles, nor on the order in which a device applies the adds (GPU
+    atomics), and under `jax.vmap` a member's grids equal its own run's. Per channel, with
+    n particles and S rows (N = n S contributions, a bound on those of any node), every
+    contribution v is quantised to the integer q = round(v 2^s), with s = B - L - E, 2^L >= N
+    and 2^E > max|v| (E from the maximum's float exponent: a maximum over every row and
+    particle, or over ``bounds``, is independent of the order; taken per member under vmap).
+    Then |q| <= 2^(B - L), and no sum of a node's at most N integers exceeds 2^B: they add
+    exactly, as integers, in any order, and are scaled back by 2^-s and rounded once to the
+    data's float type. Float32 data: B = 52, the integers carried as float64 (exact below
+    2^53), two channels as the real and imaginary parts of one complex128 scatter (the
+    pairing below, kept); float64 data: B = 62, int64, one channel per scatter (no
+    overflow below 2^63). Precision: the quantum 2^-s is below 4 N 2^-B max|v|, so each
+    contribution moves by less than 2^(1-B) N of the largest: float32 data 4.4e-16 N
+    (1.3e-11 for the 1D baseline PST, N = 30 000; 3e-10 for the 75 000-particle slope, N =
+    675 000; float32's own rounding, 6e-8, is reached at N = 1.4e8), float64 data 4.3e-19 N;
+    contributions above 2^(25-B) N of the largest (float32 data: 7.5e-9 N) are quantised
+    exactly. A node's sum is then exact to (its contributions) x (that error), then rounded
+    once; the float scatter rounds once per add, relative to the partial sums.
+    Non-finite values: a non-finite maximum (of the rows or of ``bounds``) makes the
+    channel's grid NaN; with float32 data and bounds, a non-finite contribution still
+    propagates through the float64 sums to its nodes, as in the float path. Derivatives
+    (forward and reverse) are those of the plain float scatter-add: the quantisation has
+    zero derivative almost everywhere, so a custom JVP takes the float scatter's tangent.
+
+    ``bounds`` (fixed only; used for float32 data): per channel None, or a value not below
+    |v| for every row of the particle (a scalar, or an array over the particles): its
+    maximum sets the scale instead of the maximum over all S rows, which XLA would compute
+    by recomputing each row. A looser bound costs precision in proportion; one below the
+    true maximum by less than 2x is harmless (the float64 sums stay exact below 2^53).
+    Cost on XLA:CPU: docs/performance/transfers.md (see also `materialise`).
+
+    ``accumulation="float"``: plain float scatter-adds. Channels go in pairs through one
+    complex scatter-add each (real part the first, imaginary part the second): per element
+    a complex scatter costs about what a real one does on XLA:CPU (micro-benchmark,
+    10 000 particles, 3 channels x 3 rows: 82 -> 63 us per step; 2D slope step 43.7 -> 40.1
+    ms; no gain in the 1D step, where building the complex rows costs what the saved
+    scatters did; benchmarks/README.md), and each part is summed in its own precision, in
+    the same order, so the grids equal `p2g`'s. An odd channel out uses `p2g`.
     """
+    _check_accumulation(accumulation)
+    if accumulation == "fixed":
+        chans = tuple(tuple(c) for c in channels)
+        bounds = (None,) * len(chans) if bounds is None else tuple(bounds)
+        if len(bounds) != len(chans):
+            raise ValueError(f"p2g_channels: {len(bounds)} bounds for {len(chans)} channels")
+        return list(_p2g_fixed(int(n_nodes))(tuple(st.idx), chans, bounds))
+    return _p2g_float_channels(st, channels, n_nodes)
+
+
+def _p2g_float_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
     out = []
     for c in range(0, len(channels) - 1, 2):
         a, b = channels[c], channels[c + 1]
         rows = [jax.lax.complex(a[k], b[k]) for k in range(len(st.idx))]
-        grid = p2g(st, rows, n_nodes)
+        grid = _p2g_float(st, rows, n_nodes)
         out += [jnp.real(grid), jnp.imag(grid)]
     if len(channels) % 2:
-        out.append(p2g(st, channels[-1], n_nodes))
+        out.append(_p2g_float(st, channels[-1], n_nodes))
     return out
+
+
+# --------------------------------------------------------------------------------------
+# Fixed-point accumulation (see `p2g_channels`). Integers are added exactly, so the sums
+# do not depend on the order of the adds. The 64-bit carriers (float64 holding integers,
+# complex128 pairs of them, int64) live inside `jax.enable_x64(True)` scopes; the inputs
+# and outputs keep the data's dtype, so a float32 program stays float32 around them.
+# --------------------------------------------------------------------------------------
+
+# per data dtype: (bits of the float, its exponent bias, mantissa bits, carrier, B)
+_FIXED = {
+    np.dtype(np.float32): (np.int32, 127, 23, "float64", 52),
+    np.dtype(np.float64): (np.int64, 1023, 52, "int64", 62),
+}
+
+
+def _fixed_scale(values: list[Any], dtype: Any, n_bound: int) -> tuple[Any, Any]:
+    """(2^s, 2^-s) as float64 scalars with max|v| 2^s n_bound <= 2^B, max|v| over the
+    ``values`` (a channel's rows, or its bound: arrays over the particles, or scalars; per
+    member under vmap); 2^-s is NaN when that maximum is not finite."""
+    dtype = np.dtype(dtype)
+    ibits, bias, mant, _, B = _FIXED[dtype]
+    nbits = 8 * dtype.itemsize
+    # the largest magnitude's bit pattern: an integer max (exact, order-free, and cheaper
+    # on XLA:CPU than a NaN-propagating float max); NaN and inf sort above every finite
+    absmask = ibits((1 << (nbits - 1)) - 1)
+    mags = [lax.bitcast_convert_type(jnp.asarray(v, dtype), ibits) & absmask for v in values]
+    top = functools.reduce(jnp.maximum, mags)
+    top = jnp.max(top, axis=-1) if top.ndim else top
+    with jax.enable_x64(True):
+        top = top.astype(jnp.int64)
+        biased = jnp.maximum(top >> mant, 1)  # |v| < 2^(biased - bias + 1) (zero: 2^(1 - bias))
+        log2n = max(0, math.ceil(math.log2(n_bound)))
+        s = B - log2n - (biased - bias + 1)
+        s = jnp.clip(s, -1022, 1000)  # 2^s and 2^-s stay normal float64 numbers
+        scale = lax.bitcast_convert_type((s + 1023) << 52, jnp.float64)
+        inv = lax.bitcast_convert_type((1023 - s) << 52, jnp.float64)
+        finite = top < (((1 << (nbits - 1 - mant)) - 1) << mant)  # exponent not all ones
+        inv = jnp.where(finite, inv, jnp.nan)
+    return scale, inv
+
+
+def _quantise(row: Any, scale: Any, carrier: str) -> Any:
+    with jax.enable_x64(True):
+        q = jnp.round(row.astype(jnp.float64) * scale)
+        return q.astype(jnp.int64) if carrier == "int64" else q
+
+
+def _fixed_primal(
+    n_nodes: int, idx: tuple[Any, ...], channels: tuple[Any, ...], bounds: tuple[Any, ...]
+) -> tuple:
+    dtype = np.dtype(channels[0][0].dtype)
+    if dtype not in _FIXED:
+        raise TypeError(f"fixed-point P2G: float32 or float64 contributions, not {dtype}")
+    carrier = _FIXED[dtype][3]
+    n_bound = len(idx) * int(idx[0].shape[-1])  # contributions a node can receive, at most
+    # float32 data: a given bound sets the scale (a non-finite contribution still
+    # propagates, through the float64 sums); float64 data: the rows' own maximum (an int64
+    # sum would turn a NaN into 0)
+    scales = [
+        _fixed_scale([b] if b is not None and carrier == "float64" else list(c), dtype, n_bound)
+        for c, b in zip(channels, bounds, strict=True)
+    ]
+    flat = _flat_scatter(n_nodes)
+    out: list[Any] = []
+    with jax.enable_x64(True):
+
+        def add(rows: list[Any], gdtype: Any) -> Any:
+            grid = jnp.zeros((n_nodes,), gdtype)
+            for k in range(len(idx)):
+                grid = flat(grid, idx[k], rows[k])
+            return grid
+
+        c = 0
+        if carrier == "float64":  # pairs in complex128 (two exact float64 integer sums)
+            for c in range(0, len(channels) - 1, 2):
+                (sa, ia), (sb, ib) = scales[c], scales[c + 1]
+                rows = [
+                    lax.complex(_quantise(a, sa, carrier), _quantise(b, sb, carrier))
+                    for a, b in zip(channels[c], channels[c + 1], strict=True)
+                ]
+                grid = add(rows, jnp.complex128)
+                out += [(jnp.real(grid) * ia).astype(dtype), (jnp.imag(grid) * ib).astype(dtype)]
+            c = len(channels) - len(channels) % 2
+        for ch, (sc, inv) in zip(channels[c:], scales[c:], strict=True):
+            grid = add([_quantise(r, sc, carrier) for r in ch], carrier)
+            out.append((grid.astype(jnp.float64) * inv).astype(dtype))
+    return tuple(out)
+
+
+@functools.cache
+def _p2g_fixed(n_nodes: int) -> Any:
+    @jax.custom_jvp
+    def fixed(idx: tuple[Any, ...], channels: tuple[Any, ...], bounds: tuple[Any, ...]) -> tuple:
+        return _fixed_primal(n_nodes, idx, channels, bounds)
+
+    @fixed.defjvp
+    def _jvp(primals: Any, tangents: Any) -> Any:
+        idx, channels, bounds = primals
+        # tangent: the plain float scatter-add of the tangent rows (linear, transposable)
+        t_out = []
+        t_ch = tangents[1]
+        for c in range(0, len(t_ch) - 1, 2):
+            grid = jnp.zeros((n_nodes,), jnp.result_type(t_ch[c][0], jnp.complex64))
+            for k in range(len(idx)):
+                grid = _plain_scatter(grid, idx[k], lax.complex(t_ch[c][k], t_ch[c + 1][k]))
+            t_out += [jnp.real(grid), jnp.imag(grid)]
+        if len(t_ch) % 2:
+            grid = jnp.zeros((n_nodes,), t_ch[-1][0].dtype)
+            for k in range(len(idx)):
+                grid = _plain_scatter(grid, idx[k], t_ch[-1][k])
+            t_out.append(grid)
+        return fixed(idx, channels, bounds), tuple(t_out)
+
+    return fixed
 
 
 def g2p(st: Stencil, grid: Any) -> tuple[Any, ...]:

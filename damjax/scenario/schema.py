@@ -54,6 +54,7 @@ Format (SI units throughout; angles in degrees)::
                                   # random sigma_t field: params.slab_fracture_energy,
                                   # slab_strength_cov, slab_strength_length)
     seed = 0                      # integer, picks the sigma_t field ("crack_band")
+    accumulation = "fixed"        # P2G sums: "fixed" (deterministic) or "float"
 
     [strength]                    # optional: tau_p from a CSV (columns x_m, tau_peak_pa)
     file = "profile.csv"          # relative to the scenario file's folder
@@ -118,7 +119,7 @@ from damjax.constants import (
     SLAB_FRACTURE_MODELS,
 )
 from damjax.params import PSTParams, PSTSetup
-from damjax.validation import NO_CLI_FLAG, PARAM_RULES, SETUP_RULES
+from damjax.validation import NO_CLI_FLAG, PARAM_RULES, SETUP_CHOICES, SETUP_RULES
 
 try:
     import tomllib
@@ -410,6 +411,7 @@ _CHOICES = {
     "p0_rule": P0_RULES,
     "mcc_invariants": MCC_INVARIANTS,
     "slab_fracture": SLAB_FRACTURE_MODELS,
+    "accumulation": SETUP_CHOICES["accumulation"],
 }
 
 
