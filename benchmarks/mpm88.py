@@ -485,7 +485,7 @@ def run_case(
         dtype="float32",
         n_grid=N_GRID,
         backend=jax_backend(),
-        accumulation=head,
+        accumulation=None if runner is not None else head,
         compile_time_s=round(compile_times[head], 3),
         wall_time_s=round(wall, 4),
         wall_time_min_s=round(min(walls[head]), 4),

@@ -8,6 +8,7 @@ is the plain float scatter-add. Small runs: a 10 m plastic strip and a 6 m x 6 m
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 
 import jax
@@ -15,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from damjax import PSTParams, PSTSetup, SlopeSetup, simulate_pst, simulate_slope
+from damjax import PSTParams, PSTSetup, SlopeSetup, scenario, simulate_pst, simulate_slope
 from damjax.core import loop, transfer
 from damjax.core.model import build, build_slope, make_layout, make_slope_layout
 from damjax.pst import arrest_position_smooth, run_pure
@@ -204,6 +205,14 @@ def test_invalid_accumulation_is_a_clear_error():
     assert problems == ["accumulation = 'atomic': must be in {fixed, float}"]
     with pytest.raises(ValueError, match=r"accumulation = 'atomic': must be in \{fixed, float\}"):
         simulate_pst(PLASTIC, pst_setup("atomic"))
+    for kind, valid in (("pst", "in {fixed, float}"), ("slope", 'one of {"fixed", "float"}')):
+        with pytest.raises(
+            ValueError, match=re.escape(f'setup.accumulation = "bogus": must be {valid}')
+        ):
+            scenario.parse(
+                {"type": kind, "name": "t", "setup": {"accumulation": "bogus", "length": 30.0}},
+                warn=False,
+            )
     st = transfer.stencil(jnp.zeros((1, 3), jnp.int32) + 2, jnp.full((1, 3), 0.5), 0.0, 0.1, (8,))
     with pytest.raises(ValueError, match="accumulation = 'det'"):
         transfer.p2g_channels(st, [list(st.w)], 8, "det")

@@ -25,6 +25,7 @@ float scatter-add (on a GPU: float atomics in a varying order).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import itertools
 import math
@@ -140,9 +141,11 @@ def _flat_scatter(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any, vals: Any) -> Any:
-        # 64-bit carriers of the fixed-point sums (int64, complex128) may reach this rule
-        # outside the caller's x64 scope (a vmapped scan batches its body later)
-        with jax.enable_x64(True):
+        # 64-bit carriers of the fixed-point sums (float64, complex128, int64) may reach
+        # this rule outside the caller's x64 scope (a vmapped scan batches its body later)
+        dt = np.dtype(vals.dtype)
+        wide = (dt.itemsize // 2 if dt.kind == "c" else dt.itemsize) >= 8
+        with jax.enable_x64(True) if wide else contextlib.nullcontext():
             grid, idx, vals = (
                 _batched(x, b, axis_size)
                 for x, b in zip((grid, idx, vals), in_batched, strict=True)
@@ -212,8 +215,8 @@ def materialise(tree: Any, ok: Any) -> Any:
     its particles' P2G factors with ``ok`` = a finite time step (with a non-finite dt they
     are NaN or inf anyway). An ``ok`` that XLA can evaluate at compile time, or one batched
     by `jax.vmap`, turns the conditional into a select and the barrier goes (the values
-    stay right). Not on GPUs, where a conditional costs a host round trip per step.
-    Measured: docs/performance/transfers.md.
+    stay right). On other platforms ``tree`` as it is: XLA:GPU can read a conditional's
+    predicate on the host, a round trip per step. Measured: docs/performance/transfers.md.
     """
 
     def barrier(t: Any) -> Any:

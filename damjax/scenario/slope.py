@@ -96,7 +96,7 @@ from damjax.scenario.schema import (
 )
 from damjax.scenario.slope_fields import _GENERIC_DEFAULTS, _FieldProblem, resolve_fields
 from damjax.slope.generic import window_problem
-from damjax.validation import MIN_CELLS, SETUP_RULES, must_text, param_problems
+from damjax.validation import MIN_CELLS, SETUP_CHOICES, SETUP_RULES, must_text, param_problems
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
 STRENGTH_KINDS = ("constant", "grf", "map")
@@ -405,6 +405,7 @@ def check(
         ("p0_rule", P0_RULES),
         ("mcc_invariants", MCC_INVARIANTS),
         ("slab_fracture", SLAB_FRACTURE_MODELS),
+        ("accumulation", SETUP_CHOICES["accumulation"]),
     ):
         if key in svals and key not in sbad and svals[key] not in choices:
             valid = "{" + ", ".join(f'"{c}"' for c in choices) + "}"
