@@ -75,13 +75,7 @@ def front_width(model: Model) -> Any:
     built (`Model.front_width`)."""
     if model.front_width is not None:
         return model.front_width
-    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
-    lam = jnp.sqrt(
-        model.youngs_modulus
-        * model.thickness
-        / ((1.0 - model.poisson * model.poisson) * model.stiffness)
-    )
-    return weak_layer.front_width(model.u_res, spacing, lam)
+    return model.with_constants().front_width  # a model built without its constants
 
 
 def broken_mask(model: Model, state: State) -> Any:
