@@ -418,6 +418,22 @@ def run_path(
     return row
 
 
+def _with_duration(path: str, duration: float | None) -> Any:
+    """The path's shipped scenario, with ``duration`` [s] when given (else None: the
+    scenario as shipped)."""
+    if duration is None:
+        return None
+    import dataclasses
+    import warnings
+
+    from damjax import scenario as scenarios
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scn = scenarios.load(scenario_name(path))
+    return dataclasses.replace(scn, setup=dataclasses.replace(scn.setup, duration=duration))
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--path", choices=(*PATHS, "all"), default="all")
@@ -425,6 +441,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", default="damjax-out/real-path", help="output folder")
     ap.add_argument("--run-dir", default=None, help="reuse this run / ensemble folder")
     ap.add_argument("--no-figure", action="store_true", help="no docs/images figure")
+    ap.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="simulated time [s] instead of the scenario's (an ensemble on a CPU: the time "
+        "by which one member's release stopped growing)",
+    )
     ap.add_argument("--com1dfa", metavar="AVADIR", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--frict", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -432,6 +455,8 @@ def main(argv: list[str] | None = None) -> None:
         print(json.dumps(run_com1dfa(args.com1dfa, args.frict)))
         return
     paths = PATHS if args.path == "all" else (args.path,)
+    if args.duration is not None and not args.duration > 0:
+        raise SystemExit(f"--duration {args.duration}: must be > 0 s")
     for path in paths:
         out = Path(args.out) / path
         fig = None if args.no_figure else IMAGES / f"real_path_{path.lower()}.png"
@@ -440,6 +465,7 @@ def main(argv: list[str] | None = None) -> None:
             out,
             members=args.members,
             run_dir=Path(args.run_dir) if args.run_dir else None,
+            scenario=_with_duration(path, args.duration),
             figure=fig,
         )
         row["date"] = time.strftime("%Y-%m-%d")

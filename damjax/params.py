@@ -141,12 +141,15 @@ class PSTSetup:
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band";
             the same field on every dx).
         accumulation: how the particle-to-grid sums are added
-            (`damjax.core.transfer.p2g_channels`): "fixed" (the default: fixed-point
-            integers, so a run is deterministic and does not depend on the particles'
-            order; each contribution is rounded to 4.4e-16 N of the largest, N = 3^dim
-            contributions per particle x particles, far below float32's 6e-8) or "float"
-            (plain float scatter-adds: on a GPU their order, hence the last bits, varies
-            between identical runs).
+            (`damjax.core.transfer.p2g_channels`): "auto" (the default: "float" on a
+            CPU, "fixed" on a GPU or any other backend; deterministic on each,
+            `damjax.core.transfer.resolve_accumulation`), "fixed" (fixed-point
+            integers, so a run is deterministic on every backend and does not depend
+            on the particles' order; each contribution is rounded to 4.4e-16 N of the
+            largest, N = 3^dim contributions per particle x particles, far below
+            float32's 6e-8) or "float" (plain float scatter-adds: deterministic on a
+            CPU, which adds them in the particles' order; on a GPU their order, hence
+            the last bits, varies between identical runs).
     """
 
     length: float = 100.0
@@ -164,7 +167,7 @@ class PSTSetup:
     mcc_invariants: str = "3d"
     slab_fracture: str = "paper"
     seed: int = 0
-    accumulation: str = "fixed"
+    accumulation: str = "auto"
 
     def __post_init__(self) -> None:
         _normalise_dtype(self)
@@ -203,8 +206,8 @@ class SlopeSetup:
             "crack_band" (see `PSTSetup`; the strength field is drawn over length x width;
             a 30 m x 8 m slope on dx 0.125 m runs 1.4-1.7 x longer with it).
         seed: integer in [0, 2^31 - 1], picks the tensile-strength field ("crack_band").
-        accumulation: particle-to-grid sums, "fixed" (deterministic, the default) or
-            "float" (see `PSTSetup`).
+        accumulation: particle-to-grid sums, "auto" (the default: "float" on a CPU,
+            "fixed" elsewhere), "fixed" or "float" (see `PSTSetup`).
     """
 
     length: float = 50.0
@@ -220,7 +223,7 @@ class SlopeSetup:
     mcc_invariants: str = "3d"
     slab_fracture: str = "paper"
     seed: int = 0
-    accumulation: str = "fixed"
+    accumulation: str = "auto"
 
     def __post_init__(self) -> None:
         _normalise_dtype(self)

@@ -1,8 +1,9 @@
 """Deterministic particle-to-grid sums (`PSTSetup.accumulation`, `damjax.core.transfer`).
 
-The default "fixed" accumulation adds integers, so a run does not depend on the order in
-which its particles are stored (nor, on a GPU, on the order of the atomic adds); "float"
-is the plain float scatter-add. Small runs: a 10 m plastic strip and a 6 m x 6 m slope.
+The "fixed" accumulation adds integers, so a run does not depend on the order in which its
+particles are stored (nor, on a GPU, on the order of the atomic adds); "float" is the
+plain float scatter-add; "auto", the setups' default, is "float" on a CPU and "fixed"
+elsewhere. Small runs: a 10 m plastic strip and a 6 m x 6 m slope.
 """
 
 from __future__ import annotations
@@ -200,12 +201,17 @@ def test_p2g_is_exact_and_order_free_and_pairs_equal_single_channels():
 
 def test_invalid_accumulation_is_a_clear_error():
     problems = setup_problems(pst_setup("fixedpoint"))
-    assert problems == ["accumulation = 'fixedpoint': must be in {fixed, float}"]
+    assert problems == ["accumulation = 'fixedpoint': must be in {auto, fixed, float}"]
     problems = slope_problems(SLOPE, slope_setup("atomic"), 38.0, 600.0)
-    assert problems == ["accumulation = 'atomic': must be in {fixed, float}"]
-    with pytest.raises(ValueError, match=r"accumulation = 'atomic': must be in \{fixed, float\}"):
+    assert problems == ["accumulation = 'atomic': must be in {auto, fixed, float}"]
+    with pytest.raises(
+        ValueError, match=r"accumulation = 'atomic': must be in \{auto, fixed, float\}"
+    ):
         simulate_pst(PLASTIC, pst_setup("atomic"))
-    for kind, valid in (("pst", "in {fixed, float}"), ("slope", 'one of {"fixed", "float"}')):
+    for kind, valid in (
+        ("pst", "in {auto, fixed, float}"),
+        ("slope", 'one of {"auto", "fixed", "float"}'),
+    ):
         with pytest.raises(
             ValueError, match=re.escape(f'setup.accumulation = "bogus": must be {valid}')
         ):
@@ -216,3 +222,19 @@ def test_invalid_accumulation_is_a_clear_error():
     st = transfer.stencil(jnp.zeros((1, 3), jnp.int32) + 2, jnp.full((1, 3), 0.5), 0.0, 0.1, (8,))
     with pytest.raises(ValueError, match="accumulation = 'det'"):
         transfer.p2g_channels(st, [list(st.w)], 8, "det")
+
+
+def test_auto_accumulation_is_float_on_a_cpu_and_fixed_elsewhere():
+    assert transfer.resolve_accumulation("auto", "cpu") == "float"
+    for backend in ("gpu", "cuda", "rocm", "tpu"):
+        assert transfer.resolve_accumulation("auto", backend) == "fixed"
+    for acc in ("fixed", "float"):
+        assert transfer.resolve_accumulation(acc, "cpu") == acc
+        assert transfer.resolve_accumulation(acc, "gpu") == acc
+    with pytest.raises(ValueError, match="accumulation = 'atomic'"):
+        transfer.resolve_accumulation("atomic")
+    # the setups default to "auto"; the model holds what it resolves to on this backend
+    assert PSTSetup().accumulation == SlopeSetup().accumulation == "auto"
+    want = transfer.resolve_accumulation("auto")
+    assert pst_model("auto")[0].accumulation == want
+    assert slope_model("auto")[0].accumulation == want

@@ -24,6 +24,7 @@ import numpy as np
 
 from damjax import theory
 from damjax.constants import G_ACC
+from damjax.core import transfer
 from damjax.core.state import Model, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
@@ -253,7 +254,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
-        accumulation=setup.accumulation,
+        accumulation=transfer.resolve_accumulation(setup.accumulation),
         **slab_kw,
     ).with_constants()  # front width, w_c: derived once, not every step
     tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
@@ -512,7 +513,7 @@ def build_slope(
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
-        accumulation=setup.accumulation,
+        accumulation=transfer.resolve_accumulation(setup.accumulation),
         **slab_kw,
     ).with_constants()  # front width, w_c: derived once, not every step
     # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)

@@ -36,9 +36,27 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-# how P2G adds the particles' contributions (`p2g_channels`): "fixed" (the default,
-# deterministic) or "float" (plain float scatter-adds, order-dependent on a GPU)
-ACCUMULATIONS = ("fixed", "float")
+# how P2G adds the particles' contributions (`p2g_channels`): "fixed" (deterministic
+# fixed point), "float" (plain float scatter-adds, order-dependent on a GPU) or "auto"
+# (what `resolve_accumulation` picks for the backend: the default of the setups)
+ACCUMULATIONS = ("auto", "fixed", "float")
+
+
+def resolve_accumulation(accumulation: str, backend: str | None = None) -> str:
+    """The accumulation a run uses: "fixed" or "float" as given; "auto" is "float" on a
+    CPU and "fixed" on every other backend (``backend``: default `jax.default_backend()`).
+
+    Both are deterministic where they are chosen: XLA:CPU adds a scatter's elements one
+    after the other in the particles' order, so a CPU run repeats bitwise with float sums,
+    which cost less there (their scatter moves half the bytes: mpm88 1.2-1.6 x faster,
+    the Fig. 12a slope up to 1.1 x; docs/performance/transfers.md); a GPU applies float
+    atomics in a varying order, and the fixed-point sums make its runs repeat. "fixed"
+    everywhere also makes a run independent of the particles' order and gives CPU and GPU
+    the same sums (not the same elementwise arithmetic)."""
+    _check_accumulation(accumulation)
+    if accumulation != "auto":
+        return accumulation
+    return "float" if (backend or jax.default_backend()) == "cpu" else "fixed"
 
 
 def offsets(dim: int) -> list[tuple[int, ...]]:
@@ -233,16 +251,17 @@ def _check_accumulation(accumulation: str) -> None:
             + ", ".join(repr(a) for a in ACCUMULATIONS)
             + " (PSTSetup.accumulation / SlopeSetup.accumulation: 'fixed' adds the "
             "particle-to-grid sums in deterministic fixed point, 'float' in plain float "
-            "scatter-adds)"
+            "scatter-adds, 'auto' picks 'float' on a CPU and 'fixed' elsewhere)"
         )
 
 
 def p2g(st: Stencil, rows: Any, n_nodes: int, accumulation: str = "fixed") -> Any:
     """Scatter-add per-node contributions (S rows of (n,)) to a flat grid (n_nodes,).
 
-    ``accumulation``: "fixed" (default, deterministic) or "float"; see `p2g_channels`.
+    ``accumulation``: "fixed" (default, deterministic), "float" or "auto"
+    (`resolve_accumulation`); see `p2g_channels`.
     """
-    _check_accumulation(accumulation)
+    accumulation = resolve_accumulation(accumulation)
     if accumulation == "fixed":
         return _p2g_fixed(int(n_nodes))(tuple(st.idx), (tuple(rows),), (None,))[0]
     return _p2g_float(st, rows, n_nodes)
@@ -297,6 +316,8 @@ def p2g_channels(
     true maximum by less than 2x is harmless (the float64 sums stay exact below 2^53).
     Cost on XLA:CPU: docs/performance/transfers.md (see also `materialise`).
 
+    ``accumulation="auto"``: "float" on a CPU, "fixed" elsewhere (`resolve_accumulation`).
+
     ``accumulation="float"``: plain float scatter-adds. Channels go in pairs through one
     complex scatter-add each (real part the first, imaginary part the second): per element
     a complex scatter costs about what a real one does on XLA:CPU (micro-benchmark,
@@ -305,7 +326,7 @@ def p2g_channels(
     scatters did; benchmarks/README.md), and each part is summed in its own precision, in
     the same order, so the grids equal `p2g`'s. An odd channel out uses `p2g`.
     """
-    _check_accumulation(accumulation)
+    accumulation = resolve_accumulation(accumulation)
     if accumulation == "fixed":
         chans = tuple(tuple(c) for c in channels)
         bounds = (None,) * len(chans) if bounds is None else tuple(bounds)

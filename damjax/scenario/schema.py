@@ -54,7 +54,8 @@ Format (SI units throughout; angles in degrees)::
                                   # random sigma_t field: params.slab_fracture_energy,
                                   # slab_strength_cov, slab_strength_length)
     seed = 0                      # integer, picks the sigma_t field ("crack_band")
-    accumulation = "fixed"        # P2G sums: "fixed" (deterministic) or "float"
+    accumulation = "auto"         # P2G sums: "auto" ("float" on a CPU, "fixed" on a
+                                  # GPU), "fixed" (deterministic fixed point) or "float"
 
     [strength]                    # optional: tau_p from a CSV (columns x_m, tau_peak_pa)
     file = "profile.csv"          # relative to the scenario file's folder
