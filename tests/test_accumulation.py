@@ -238,3 +238,37 @@ def test_auto_accumulation_is_float_on_a_cpu_and_fixed_elsewhere():
     want = transfer.resolve_accumulation("auto")
     assert pst_model("auto")[0].accumulation == want
     assert slope_model("auto")[0].accumulation == want
+
+
+def test_no_scatter_of_128_bit_elements():
+    """XLA:GPU rewrites a scatter of elements wider than 64 bits (complex128) into a loop
+    over its updates, one at a time: the transfers pair channels only as complex64, so
+    neither a fixed-point P2G, nor float64 data, nor a gradient (a gather's transpose is
+    a scatter) lowers to a complex128 scatter or gather."""
+    rng = np.random.default_rng(0)
+    n, shape = 50, (12,)
+    nn = int(np.prod(shape))
+
+    def lowered(dtype, accumulation: str) -> str:
+        cell0 = jnp.asarray(rng.integers(3, 8, size=(1, n)), jnp.int32)
+        frac0 = jnp.asarray(rng.random((1, n)), dtype)
+        vals = [jnp.asarray(rng.normal(size=n), dtype) for _ in range(3)]
+
+        def f(u, vals):
+            st = transfer.stencil(cell0, frac0, u, 0.1, shape)
+            chans = [[w * v for w in st.w] for v in vals]
+            grids = transfer.p2g_channels(st, chans, nn, accumulation)
+            rows = transfer.g2p_channels(st, grids[:2])
+            return sum(jnp.sum(r) for rs in rows for r in rs) + jnp.sum(grids[2])
+
+        u = jnp.zeros((1, n), dtype)
+        return jax.jit(jax.grad(f, argnums=(0, 1))).lower(u, vals).as_text()
+
+    for acc in ("fixed", "float"):
+        text = lowered(jnp.float32, acc)
+        assert "scatter" in text and "complex<f32>" in text  # the float32 pairs stay
+        assert "complex<f64>" not in text, acc
+        with jax.enable_x64(True):
+            text = lowered(jnp.float64, acc)
+        assert "scatter" in text
+        assert "complex<f64>" not in text, acc

@@ -10,10 +10,12 @@ Layout (chosen by measurement, see benchmarks/README.md): structure of arrays wi
 particle index last; every grid quantity is a flat 1D array over the nodes; a transfer is
 S scalar scatter-adds (P2G) or gathers (G2P) of n elements per channel, S = 3**dim.
 On XLA:CPU a scalar scatter costs ~1 ns per element, while scatters of row vectors or
-several stencil offsets per index are 3-8x slower. A complex scatter costs what a real one
-does, so `p2g_channels` scatters two real channels as the real and imaginary parts of one
-complex row: the sums are the same float additions, done in half the scatters; likewise
-`g2p_channels` gathers two grid fields in one complex gather. Under `jax.vmap` (sweeps),
+several stencil offsets per index are 3-8x slower. A complex64 scatter costs what a real
+one does, so `p2g_channels` scatters two float32 channels as the real and imaginary parts
+of one complex row: the sums are the same float additions, done in half the scatters;
+likewise `g2p_channels` gathers two float32 grid fields in one complex gather. Float64 data
+is never paired: XLA:GPU scatters elements wider than 64 bits one update at a time
+(`_pairs`). Under `jax.vmap` (sweeps),
 the scatters and gathers run over all members' grids at once (a batching rule, below).
 
 P2G sums are deterministic by default (``accumulation="fixed"``, `p2g_channels`): each
@@ -159,7 +161,7 @@ def _flat_scatter(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any, vals: Any) -> Any:
-        # 64-bit carriers of the fixed-point sums (float64, complex128, int64) may reach
+        # 64-bit carriers of the fixed-point sums (float64, int64) may reach
         # this rule outside the caller's x64 scope (a vmapped scan batches its body later)
         dt = np.dtype(vals.dtype)
         wide = (dt.itemsize // 2 if dt.kind == "c" else dt.itemsize) >= 8
@@ -244,6 +246,15 @@ def materialise(tree: Any, ok: Any) -> Any:
     return lax.platform_dependent(tree, cpu=barrier, default=lambda t: t)
 
 
+def _pairs(dtype: Any) -> bool:
+    """Whether two real channels of ``dtype`` travel as one complex array: only as
+    complex64 (float32 parts). XLA:GPU cannot scatter elements wider than 64 bits
+    atomically and rewrites such a scatter into a loop over its updates, one at a time
+    (its GpuScatterExpander), so no complex128 array is ever scattered, nor gathered
+    (reverse mode transposes a gather into a scatter)."""
+    return np.dtype(dtype) == np.dtype(np.float32)
+
+
 def _check_accumulation(accumulation: str) -> None:
     if accumulation not in ACCUMULATIONS:
         raise ValueError(
@@ -294,9 +305,10 @@ def p2g_channels(
     Then |q| <= 2^(B - L), and no sum of a node's at most N integers exceeds 2^B: they add
     exactly, as integers, in any order, and are scaled back by 2^-s and rounded once to the
     data's float type. Float32 data: B = 52, the integers carried as float64 (exact below
-    2^53), two channels as the real and imaginary parts of one complex128 scatter (the
-    pairing below, kept); float64 data: B = 62, int64, one channel per scatter (no
-    overflow below 2^63). Precision: the quantum 2^-s is below 4 N 2^-B max|v|, so each
+    2^53); float64 data: B = 62, int64 (no overflow below 2^63); one 64-bit scatter per
+    channel (a complex128 pair would be one scatter on a CPU, but XLA:GPU runs scatters of
+    128-bit elements one update at a time: `_pairs`). Precision: the quantum 2^-s is
+    below 4 N 2^-B max|v|, so each
     contribution moves by less than 2^(1-B) N of the largest: float32 data 4.4e-16 N
     (1.3e-11 for the 1D baseline PST, N = 30 000; 3e-10 for the 75 000-particle slope, N =
     675 000; float32's own rounding, 6e-8, is reached at N = 1.4e8), float64 data 4.3e-19 N;
@@ -318,8 +330,9 @@ def p2g_channels(
 
     ``accumulation="auto"``: "float" on a CPU, "fixed" elsewhere (`resolve_accumulation`).
 
-    ``accumulation="float"``: plain float scatter-adds. Channels go in pairs through one
-    complex scatter-add each (real part the first, imaginary part the second): per element
+    ``accumulation="float"``: plain float scatter-adds. Float32 channels go in pairs
+    through one complex64 scatter-add each (real part the first, imaginary part the
+    second; float64 channels one by one, `_pairs`): per element
     a complex scatter costs about what a real one does on XLA:CPU (micro-benchmark,
     10 000 particles, 3 channels x 3 rows: 82 -> 63 us per step; 2D slope step 43.7 -> 40.1
     ms; no gain in the 1D step, where building the complex rows costs what the saved
@@ -337,6 +350,8 @@ def p2g_channels(
 
 
 def _p2g_float_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
+    if not _pairs(channels[0][0].dtype):  # float64 data: one real scatter per channel
+        return [_p2g_float(st, c, n_nodes) for c in channels]
     out = []
     for c in range(0, len(channels) - 1, 2):
         a, b = channels[c], channels[c + 1]
@@ -351,7 +366,7 @@ def _p2g_float_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
 # --------------------------------------------------------------------------------------
 # Fixed-point accumulation (see `p2g_channels`). Integers are added exactly, so the sums
 # do not depend on the order of the adds. The 64-bit carriers (float64 holding integers,
-# complex128 pairs of them, int64) live inside `jax.enable_x64(True)` scopes; the inputs
+# int64) live inside `jax.enable_x64(True)` scopes; the inputs
 # and outputs keep the data's dtype, so a float32 program stays float32 around them.
 # --------------------------------------------------------------------------------------
 
@@ -419,18 +434,9 @@ def _fixed_primal(
                 grid = flat(grid, idx[k], rows[k])
             return grid
 
-        c = 0
-        if carrier == "float64":  # pairs in complex128 (two exact float64 integer sums)
-            for c in range(0, len(channels) - 1, 2):
-                (sa, ia), (sb, ib) = scales[c], scales[c + 1]
-                rows = [
-                    lax.complex(_quantise(a, sa, carrier), _quantise(b, sb, carrier))
-                    for a, b in zip(channels[c], channels[c + 1], strict=True)
-                ]
-                grid = add(rows, jnp.complex128)
-                out += [(jnp.real(grid) * ia).astype(dtype), (jnp.imag(grid) * ib).astype(dtype)]
-            c = len(channels) - len(channels) % 2
-        for ch, (sc, inv) in zip(channels[c:], scales[c:], strict=True):
+        # one 64-bit scatter per channel: a complex128 pair would halve the scatters on a
+        # CPU, but XLA:GPU runs a scatter of 128-bit elements one update at a time
+        for ch, (sc, inv) in zip(channels, scales, strict=True):
             grid = add([_quantise(r, sc, carrier) for r in ch], carrier)
             out.append((grid.astype(jnp.float64) * inv).astype(dtype))
     return tuple(out)
@@ -448,15 +454,19 @@ def _p2g_fixed(n_nodes: int) -> Any:
         # tangent: the plain float scatter-add of the tangent rows (linear, transposable)
         t_out = []
         t_ch = tangents[1]
-        for c in range(0, len(t_ch) - 1, 2):
-            grid = jnp.zeros((n_nodes,), jnp.result_type(t_ch[c][0], jnp.complex64))
+        paired = _pairs(t_ch[0][0].dtype)  # complex64 pairs only (see `_pairs`)
+        c = 0
+        if paired:
+            for c in range(0, len(t_ch) - 1, 2):
+                grid = jnp.zeros((n_nodes,), jnp.complex64)
+                for k in range(len(idx)):
+                    grid = _plain_scatter(grid, idx[k], lax.complex(t_ch[c][k], t_ch[c + 1][k]))
+                t_out += [jnp.real(grid), jnp.imag(grid)]
+            c = len(t_ch) - len(t_ch) % 2
+        for ch in t_ch[c:]:
+            grid = jnp.zeros((n_nodes,), ch[0].dtype)
             for k in range(len(idx)):
-                grid = _plain_scatter(grid, idx[k], lax.complex(t_ch[c][k], t_ch[c + 1][k]))
-            t_out += [jnp.real(grid), jnp.imag(grid)]
-        if len(t_ch) % 2:
-            grid = jnp.zeros((n_nodes,), t_ch[-1][0].dtype)
-            for k in range(len(idx)):
-                grid = _plain_scatter(grid, idx[k], t_ch[-1][k])
+                grid = _plain_scatter(grid, idx[k], ch[k])
             t_out.append(grid)
         return fixed(idx, channels, bounds), tuple(t_out)
 
@@ -472,12 +482,15 @@ def g2p(st: Stencil, grid: Any) -> tuple[Any, ...]:
 def g2p_channels(st: Stencil, grids: Any) -> list[tuple[Any, ...]]:
     """`g2p` of several grid fields (n_nodes,): per field, S rows of (n,).
 
-    Fields go in pairs through one complex gather each (real part the first, imaginary
-    part the second), half the gathers: the values are the same floats as `g2p`'s. An odd
-    field out uses `g2p`. Measured on XLA:CPU (2-core Intel Xeon): 2D generic-slope step
+    Float32 fields go in pairs through one complex64 gather each (real part the first,
+    imaginary part the second), half the gathers: the values are the same floats as
+    `g2p`'s. An odd field out, and float64 fields, use `g2p` (`_pairs`). Measured on
+    XLA:CPU (2-core Intel Xeon): 2D generic-slope step
     (300 000 particles) 37.2 -> 34.0 ms; mpm88 throughput +10-15 % at N = 32768 and
     131072 (benchmarks/README.md).
     """
+    if not _pairs(grids[0].dtype):  # float64 fields: one real gather each
+        return [g2p(st, g) for g in grids]
     out = []
     for c in range(0, len(grids) - 1, 2):
         rows = g2p(st, jax.lax.complex(grids[c], grids[c + 1]))
