@@ -240,16 +240,20 @@ def test_auto_accumulation_is_float_on_a_cpu_and_fixed_elsewhere():
     assert slope_model("auto")[0].accumulation == want
 
 
-def test_no_scatter_of_128_bit_elements():
+def test_transfers_pair_channels_on_a_cpu_only_and_never_in_128_bits(monkeypatch):
     """XLA:GPU rewrites a scatter of elements wider than 64 bits (complex128) into a loop
-    over its updates, one at a time: the transfers pair channels only as complex64, so
-    neither a fixed-point P2G, nor float64 data, nor a gradient (a gather's transpose is
-    a scatter) lowers to a complex128 scatter or gather."""
+    over its updates, one at a time, and adds complex64 through a compare-and-swap loop.
+    Traced for a GPU (the default backend patched to "gpu") and exported for CUDA
+    (`jax.export`, no GPU needed), the transfers and a whole 1D step, with their
+    gradients, hold no complex array at all; on the CPU float32 channels go in complex64
+    pairs and nothing in complex128, with float32 or float64 data."""
+    from jax import export
+
     rng = np.random.default_rng(0)
     n, shape = 50, (12,)
     nn = int(np.prod(shape))
 
-    def lowered(dtype, accumulation: str) -> str:
+    def module(dtype, accumulation: str, platform: str) -> str:
         cell0 = jnp.asarray(rng.integers(3, 8, size=(1, n)), jnp.int32)
         frac0 = jnp.asarray(rng.random((1, n)), dtype)
         vals = [jnp.asarray(rng.normal(size=n), dtype) for _ in range(3)]
@@ -262,13 +266,30 @@ def test_no_scatter_of_128_bit_elements():
             return sum(jnp.sum(r) for rs in rows for r in rs) + jnp.sum(grids[2])
 
         u = jnp.zeros((1, n), dtype)
-        return jax.jit(jax.grad(f, argnums=(0, 1))).lower(u, vals).as_text()
+        fn = jax.jit(jax.grad(f, argnums=(0, 1)))
+        return export.export(fn, platforms=[platform])(u, vals).mlir_module()
+
+    def step_module(accumulation: str) -> str:
+        model, state = pst_model(accumulation)
+
+        def loss(u):
+            out = loop.run_chunk(model, dataclasses.replace(state, u=u), 3)[0]
+            return jnp.sum(out.u) + jnp.sum(out.sigma[0])
+
+        fn = jax.jit(jax.grad(loss))
+        return export.export(fn, platforms=["cuda"])(state.u).mlir_module()
 
     for acc in ("fixed", "float"):
-        text = lowered(jnp.float32, acc)
-        assert "scatter" in text and "complex<f32>" in text  # the float32 pairs stay
-        assert "complex<f64>" not in text, acc
+        cpu = module(jnp.float32, acc, "cpu")
+        assert "scatter" in cpu and "complex<f32>" in cpu, acc  # the CPU's pairs
+        assert "complex<f64>" not in cpu, acc
         with jax.enable_x64(True):
-            text = lowered(jnp.float64, acc)
-        assert "scatter" in text
-        assert "complex<f64>" not in text, acc
+            assert "complex" not in module(jnp.float64, acc, "cpu"), acc
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    for acc in ("fixed", "float"):
+        cuda = module(jnp.float32, acc, "cuda")
+        assert "scatter" in cuda and "complex" not in cuda, acc
+        with jax.enable_x64(True):
+            assert "complex" not in module(jnp.float64, acc, "cuda"), acc
+        text = step_module(acc)
+        assert "scatter" in text and "complex" not in text, acc

@@ -247,12 +247,27 @@ def materialise(tree: Any, ok: Any) -> Any:
 
 
 def _pairs(dtype: Any) -> bool:
-    """Whether two real channels of ``dtype`` travel as one complex array: only as
+    """Whether two real channels of ``dtype`` may travel as one complex array: only as
     complex64 (float32 parts). XLA:GPU cannot scatter elements wider than 64 bits
     atomically and rewrites such a scatter into a loop over its updates, one at a time
     (its GpuScatterExpander), so no complex128 array is ever scattered, nor gathered
-    (reverse mode transposes a gather into a scatter)."""
+    (reverse mode transposes a gather into a scatter). Even complex64 pairs are formed
+    on CPUs only (`_cpu_paired`)."""
     return np.dtype(dtype) == np.dtype(np.float32)
+
+
+def _cpu_paired(paired: Any, unpaired: Any, *args: Any) -> Any:
+    """``paired(*args)`` when JAX's default backend is a CPU, else ``unpaired(*args)``
+    (decided when the function is traced).
+
+    On XLA:CPU a complex64 scatter or gather costs what a real one does, so pairs halve
+    the transfers. XLA:GPU adds only float16/32/64 and integers with native atomics; a
+    complex64 add becomes a compare-and-swap loop on 64-bit words, which retries as
+    particles crowd a node (and reverse mode turns each paired gather into such a
+    scatter-add), so other backends keep one real array per channel. Not
+    `lax.platform_dependent`: under reverse mode its two branches' residuals are joined,
+    and a GPU program would carry the CPU branch's complex buffers through every step."""
+    return paired(*args) if jax.default_backend() == "cpu" else unpaired(*args)
 
 
 def _check_accumulation(accumulation: str) -> None:
@@ -350,17 +365,24 @@ def p2g_channels(
 
 
 def _p2g_float_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
-    if not _pairs(channels[0][0].dtype):  # float64 data: one real scatter per channel
+    def unpaired(st: Stencil, channels: Any) -> list[Any]:
         return [_p2g_float(st, c, n_nodes) for c in channels]
-    out = []
-    for c in range(0, len(channels) - 1, 2):
-        a, b = channels[c], channels[c + 1]
-        rows = [jax.lax.complex(a[k], b[k]) for k in range(len(st.idx))]
-        grid = _p2g_float(st, rows, n_nodes)
-        out += [jnp.real(grid), jnp.imag(grid)]
-    if len(channels) % 2:
-        out.append(_p2g_float(st, channels[-1], n_nodes))
-    return out
+
+    def paired(st: Stencil, channels: Any) -> list[Any]:
+        out = []
+        for c in range(0, len(channels) - 1, 2):
+            a, b = channels[c], channels[c + 1]
+            rows = [jax.lax.complex(a[k], b[k]) for k in range(len(st.idx))]
+            grid = _p2g_float(st, rows, n_nodes)
+            out += [jnp.real(grid), jnp.imag(grid)]
+        if len(channels) % 2:
+            out.append(_p2g_float(st, channels[-1], n_nodes))
+        return out
+
+    channels = [list(c) for c in channels]
+    if not _pairs(channels[0][0].dtype):  # float64 data: one real scatter per channel
+        return unpaired(st, channels)
+    return _cpu_paired(paired, unpaired, st, channels)
 
 
 # --------------------------------------------------------------------------------------
@@ -451,23 +473,33 @@ def _p2g_fixed(n_nodes: int) -> Any:
     @fixed.defjvp
     def _jvp(primals: Any, tangents: Any) -> Any:
         idx, channels, bounds = primals
+
         # tangent: the plain float scatter-add of the tangent rows (linear, transposable)
-        t_out = []
-        t_ch = tangents[1]
-        paired = _pairs(t_ch[0][0].dtype)  # complex64 pairs only (see `_pairs`)
-        c = 0
-        if paired:
+        def one(idx: Any, ch: Any) -> Any:
+            grid = jnp.zeros((n_nodes,), ch[0].dtype)
+            for k in range(len(idx)):
+                grid = _plain_scatter(grid, idx[k], ch[k])
+            return grid
+
+        def unpaired(idx: Any, t_ch: Any) -> list[Any]:
+            return [one(idx, ch) for ch in t_ch]
+
+        def paired(idx: Any, t_ch: Any) -> list[Any]:  # complex64 pairs (`_cpu_paired`)
+            t_out = []
             for c in range(0, len(t_ch) - 1, 2):
                 grid = jnp.zeros((n_nodes,), jnp.complex64)
                 for k in range(len(idx)):
                     grid = _plain_scatter(grid, idx[k], lax.complex(t_ch[c][k], t_ch[c + 1][k]))
                 t_out += [jnp.real(grid), jnp.imag(grid)]
-            c = len(t_ch) - len(t_ch) % 2
-        for ch in t_ch[c:]:
-            grid = jnp.zeros((n_nodes,), ch[0].dtype)
-            for k in range(len(idx)):
-                grid = _plain_scatter(grid, idx[k], ch[k])
-            t_out.append(grid)
+            if len(t_ch) % 2:
+                t_out.append(one(idx, t_ch[-1]))
+            return t_out
+
+        t_ch = [list(ch) for ch in tangents[1]]
+        if _pairs(t_ch[0][0].dtype):
+            t_out = _cpu_paired(paired, unpaired, idx, t_ch)
+        else:
+            t_out = unpaired(idx, t_ch)
         return fixed(idx, channels, bounds), tuple(t_out)
 
     return fixed
@@ -489,15 +521,23 @@ def g2p_channels(st: Stencil, grids: Any) -> list[tuple[Any, ...]]:
     (300 000 particles) 37.2 -> 34.0 ms; mpm88 throughput +10-15 % at N = 32768 and
     131072 (benchmarks/README.md).
     """
-    if not _pairs(grids[0].dtype):  # float64 fields: one real gather each
+
+    def unpaired(st: Stencil, grids: Any) -> list[tuple[Any, ...]]:
         return [g2p(st, g) for g in grids]
-    out = []
-    for c in range(0, len(grids) - 1, 2):
-        rows = g2p(st, jax.lax.complex(grids[c], grids[c + 1]))
-        out += [tuple(jnp.real(r) for r in rows), tuple(jnp.imag(r) for r in rows)]
-    if len(grids) % 2:
-        out.append(g2p(st, grids[-1]))
-    return out
+
+    def paired(st: Stencil, grids: Any) -> list[tuple[Any, ...]]:
+        out = []
+        for c in range(0, len(grids) - 1, 2):
+            rows = g2p(st, jax.lax.complex(grids[c], grids[c + 1]))
+            out += [tuple(jnp.real(r) for r in rows), tuple(jnp.imag(r) for r in rows)]
+        if len(grids) % 2:
+            out.append(g2p(st, grids[-1]))
+        return out
+
+    grids = list(grids)
+    if not _pairs(grids[0].dtype):  # float64 fields: one real gather each
+        return unpaired(st, grids)
+    return _cpu_paired(paired, unpaired, st, grids)
 
 
 def interpolate(st: Stencil, grid: Any) -> Any:
