@@ -281,6 +281,11 @@ def sweep(
     if bar is not None:
         bar.close()
     tips_all = np.concatenate(tips, axis=1)  # (B, n_steps)
+    # members are sliced from host copies: indexing a sharded array is a cross-device
+    # gather, one collective per leaf and member, and XLA:CPU's host devices could stall
+    # in such a collective's rendezvous on a busy machine (2026-11-26, 4 host devices on
+    # 2 cores beside other XLA processes)
+    models, states = jax.device_get((models, states))
     results = []
     for i in range(n):
         take = lambda x, i=i: x[i]  # noqa: E731
