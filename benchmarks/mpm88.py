@@ -600,6 +600,17 @@ def run_case(
 # --------------------------------------------------------------------------------------------
 
 
+def _fig12a_slope() -> tuple[Any, Any, Any, Any, Any]:
+    """The Fig. 12a slope of ``python -m benchmarks slope`` (2 s, one particle per cell):
+    (case, params, slope field, strength field, start)."""
+    from damjax.slope import generic
+
+    case = generic.GenericSlopeCase(duration=2.0, particles_per_cell=1)
+    psi, tau = generic.slope_field(case), generic.strength_field(case)
+    start = case.start if case.start is not None else generic.weak_spot(case, tau)
+    return case, generic.fig12_params(), psi, tau, start
+
+
 def step_rows(cases: tuple[str, ...] = ("pst", "slope"), rounds: int = 7) -> list[dict]:
     """The damjax time step (`damjax.core.loop.run_chunk`) with ``accumulation`` "fixed"
     and "float", compiled once each and timed alternately (``rounds`` rounds of a
@@ -619,13 +630,7 @@ def step_rows(cases: tuple[str, ...] = ("pst", "slope"), rounds: int = 7) -> lis
         return (*build(p, s, make_layout(p, s)), 500)
 
     def slope(acc: str):
-        case = generic.GenericSlopeCase(duration=2.0, particles_per_cell=1)
-        params, psi, tau = (
-            generic.fig12_params(),
-            generic.slope_field(case),
-            generic.strength_field(case),
-        )
-        start = case.start if case.start is not None else generic.weak_spot(case, tau)
+        case, params, psi, tau, start = _fig12a_slope()
         setup = dataclasses.replace(generic.setup_of(case, start), accumulation=acc)
         layout = make_slope_layout(params, setup, float(np.max(psi)))
         return (*build_slope(params, setup, layout, psi, tau)[:2], 50)
@@ -681,13 +686,7 @@ def run_rows(rounds: int = 4, cases: tuple[str, ...] = ("pst_f32", "slope")) -> 
             max_crack_speed_over_cs=s["max_crack_speed_over_cs"],
         )
 
-    case = generic.GenericSlopeCase(duration=2.0, particles_per_cell=1)
-    params, psi, tau = (
-        generic.fig12_params(),
-        generic.slope_field(case),
-        generic.strength_field(case),
-    )
-    start = case.start if case.start is not None else generic.weak_spot(case, tau)
+    case, params, psi, tau, start = _fig12a_slope()
 
     def slope(acc: str) -> dict:
         setup = dataclasses.replace(generic.setup_of(case, start), accumulation=acc)
