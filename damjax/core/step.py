@@ -187,19 +187,21 @@ def step(model: Model, state: State) -> State:
             rows.append(st.w[k] * q)
         mom_rows.append(rows)
     cap_rows = [st.w[k] * fcap for k in range(S)]
-    # mass, momentum and cap in pairs through complex scatters (half the scatters),
-    # deterministic fixed-point sums unless model.accumulation is "float"; their scales
-    # come from per-particle bounds of the rows (w <= 1, |dpos| <= 1.5 dx), cheaper than
-    # the maxima of the rows themselves
-    mom_bounds = [
-        jnp.abs(m * v_star[a]) + (1.5 * dx) * sum(jnp.abs(x) for x in affine[a]) for a in range(dim)
-    ]
+    # mass, momentum and cap (on a CPU in complex pairs: half the scatters); fixed-point
+    # sums take their scales from per-particle bounds of the rows (w <= 1, |dpos| <=
+    # 1.5 dx), cheaper than the maxima of the rows themselves
+    bounds = None
+    if model.accumulation == "fixed":
+        bounds = [
+            m,
+            *(
+                jnp.abs(m * v_star[a]) + (1.5 * dx) * sum(jnp.abs(x) for x in affine[a])
+                for a in range(dim)
+            ),
+            fcap,
+        ]
     grids = transfer.p2g_channels(
-        st,
-        [mass_rows, *mom_rows, cap_rows],
-        n_nodes,
-        model.accumulation,
-        bounds=[m, *mom_bounds, fcap],
+        st, [mass_rows, *mom_rows, cap_rows], n_nodes, model.accumulation, bounds=bounds
     )
     grid_mass, grid_mom, grid_cap = grids[0], grids[1 : 1 + dim], grids[1 + dim]
 

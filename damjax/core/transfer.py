@@ -13,9 +13,10 @@ On XLA:CPU a scalar scatter costs ~1 ns per element, while scatters of row vecto
 several stencil offsets per index are 3-8x slower. A complex64 scatter costs what a real
 one does, so `p2g_channels` scatters two float32 channels as the real and imaginary parts
 of one complex row: the sums are the same float additions, done in half the scatters;
-likewise `g2p_channels` gathers two float32 grid fields in one complex gather. Float64 data
-is never paired: XLA:GPU scatters elements wider than 64 bits one update at a time
-(`_pairs`). Under `jax.vmap` (sweeps),
+likewise `g2p_channels` gathers two float32 grid fields in one complex gather. Pairs are
+formed on CPUs only and never of float64 data: XLA:GPU adds complex64 in a compare-and-swap
+loop and scatters elements wider than 64 bits one update at a time (`_pairs`,
+`_cpu_paired`). Under `jax.vmap` (sweeps),
 the scatters and gathers run over all members' grids at once (a batching rule, below).
 
 P2G sums are deterministic by default (``accumulation="fixed"``, `p2g_channels`): each
