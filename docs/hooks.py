@@ -20,9 +20,6 @@ import types
 from contextlib import redirect_stdout
 from typing import Any
 
-from mkdocs.exceptions import PluginError
-from mkdocs.structure.files import File
-
 # modules whose names are public besides damjax.__all__; a module without __all__ exposes
 # the functions and classes it defines whose names do not start with "_"
 PUBLIC_MODULES = (
@@ -94,6 +91,10 @@ def missing_docstrings() -> list[str]:
 
 
 def on_pre_build(config: Any) -> None:
+    # mkdocs imported in the hooks only: tests/test_docs_api.py runs `missing_docstrings`
+    # with the test extras, which do not install mkdocs
+    from mkdocs.exceptions import PluginError
+
     missing = missing_docstrings()
     if missing:
         raise PluginError(
@@ -293,6 +294,8 @@ GENERATED = {"api/cli.md": cli_page, "api/scenario-keys.md": scenario_keys_page}
 
 
 def on_files(files: Any, config: Any) -> Any:
+    from mkdocs.structure.files import File
+
     for uri, make in GENERATED.items():
         buf = io.StringIO()
         with redirect_stdout(buf):
