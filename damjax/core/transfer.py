@@ -234,7 +234,9 @@ def materialise(tree: Any, ok: Any) -> Any:
     arithmetic in every fusion that reads it, at the vector width of that fusion's widest
     type: the 64-bit rows of the fixed-point P2G (`p2g_channels`) halve it. The step passes
     its particles' P2G factors with ``ok`` = a finite time step (with a non-finite dt they
-    are NaN or inf anyway). An ``ok`` that XLA can evaluate at compile time, or one batched
+    are NaN or inf anyway), with either accumulation: without it every fusion building a
+    P2G row recomputed the weak layer's law (1D baseline step 204 -> 176 us with float
+    sums). An ``ok`` that XLA can evaluate at compile time, or one batched
     by `jax.vmap`, turns the conditional into a select and the barrier goes (the values
     stay right). On other platforms ``tree`` as it is: XLA:GPU can read a conditional's
     predicate on the host, a round trip per step. Measured: docs/performance/transfers.md.
@@ -295,11 +297,7 @@ def p2g(st: Stencil, rows: Any, n_nodes: int, accumulation: str = "fixed") -> An
 
 
 def _p2g_float(st: Stencil, rows: Any, n_nodes: int) -> Any:
-    scatter = _scatter_add(int(n_nodes))
-    grid = jnp.zeros((n_nodes,), rows[0].dtype)
-    for k in range(len(st.idx)):
-        grid = scatter(grid, st.idx[k], rows[k])
-    return grid
+    return _float_sums(st.idx, [rows], n_nodes, _scatter_add(int(n_nodes)))[0]
 
 
 def p2g_channels(
@@ -366,24 +364,38 @@ def p2g_channels(
 
 
 def _p2g_float_channels(st: Stencil, channels: Any, n_nodes: int) -> list[Any]:
-    def unpaired(st: Stencil, channels: Any) -> list[Any]:
-        return [_p2g_float(st, c, n_nodes) for c in channels]
+    return _float_sums(st.idx, channels, n_nodes, _scatter_add(int(n_nodes)))
 
-    def paired(st: Stencil, channels: Any) -> list[Any]:
+
+def _float_sums(idx: Any, channels: Any, n_nodes: int, scatter: Any) -> list[Any]:
+    """Float sums of channels (each S rows of (n,)) onto flat grids (n_nodes,) with
+    ``scatter(grid, idx_k, row_k)``: float32 channels in complex64 pairs on a CPU
+    (`_pairs`, `_cpu_paired`; an odd one out alone), others one by one. Used by the float
+    path (`_scatter_add`) and by the fixed path's tangent (`_plain_scatter`)."""
+
+    def one(rows: Any) -> Any:
+        grid = jnp.zeros((n_nodes,), rows[0].dtype)
+        for k in range(len(idx)):
+            grid = scatter(grid, idx[k], rows[k])
+        return grid
+
+    def unpaired(channels: Any) -> list[Any]:
+        return [one(c) for c in channels]
+
+    def paired(channels: Any) -> list[Any]:
         out = []
         for c in range(0, len(channels) - 1, 2):
             a, b = channels[c], channels[c + 1]
-            rows = [jax.lax.complex(a[k], b[k]) for k in range(len(st.idx))]
-            grid = _p2g_float(st, rows, n_nodes)
+            grid = one([lax.complex(a[k], b[k]) for k in range(len(idx))])
             out += [jnp.real(grid), jnp.imag(grid)]
         if len(channels) % 2:
-            out.append(_p2g_float(st, channels[-1], n_nodes))
+            out.append(one(channels[-1]))
         return out
 
     channels = [list(c) for c in channels]
     if not _pairs(channels[0][0].dtype):  # float64 data: one real scatter per channel
-        return unpaired(st, channels)
-    return _cpu_paired(paired, unpaired, st, channels)
+        return unpaired(channels)
+    return _cpu_paired(paired, unpaired, channels)
 
 
 # --------------------------------------------------------------------------------------
@@ -476,31 +488,7 @@ def _p2g_fixed(n_nodes: int) -> Any:
         idx, channels, bounds = primals
 
         # tangent: the plain float scatter-add of the tangent rows (linear, transposable)
-        def one(idx: Any, ch: Any) -> Any:
-            grid = jnp.zeros((n_nodes,), ch[0].dtype)
-            for k in range(len(idx)):
-                grid = _plain_scatter(grid, idx[k], ch[k])
-            return grid
-
-        def unpaired(idx: Any, t_ch: Any) -> list[Any]:
-            return [one(idx, ch) for ch in t_ch]
-
-        def paired(idx: Any, t_ch: Any) -> list[Any]:  # complex64 pairs (`_cpu_paired`)
-            t_out = []
-            for c in range(0, len(t_ch) - 1, 2):
-                grid = jnp.zeros((n_nodes,), jnp.complex64)
-                for k in range(len(idx)):
-                    grid = _plain_scatter(grid, idx[k], lax.complex(t_ch[c][k], t_ch[c + 1][k]))
-                t_out += [jnp.real(grid), jnp.imag(grid)]
-            if len(t_ch) % 2:
-                t_out.append(one(idx, t_ch[-1]))
-            return t_out
-
-        t_ch = [list(ch) for ch in tangents[1]]
-        if _pairs(t_ch[0][0].dtype):
-            t_out = _cpu_paired(paired, unpaired, idx, t_ch)
-        else:
-            t_out = unpaired(idx, t_ch)
+        t_out = _float_sums(idx, tangents[1], n_nodes, _plain_scatter)
         return fixed(idx, channels, bounds), tuple(t_out)
 
     return fixed
