@@ -203,6 +203,9 @@ def step(model: Model, state: State) -> State:
     grids = transfer.p2g_channels(
         st, [mass_rows, *mom_rows, cap_rows], n_nodes, model.accumulation, bounds=bounds
     )
+    # reverse mode gathers each grid's cotangent once per stencil row: computed into
+    # buffers first, not re-evaluated per gathered particle (`transfer.tangent_barrier`)
+    grids = transfer.tangent_barrier(grids, jnp.isfinite(dt))
     grid_mass, grid_mom, grid_cap = grids[0], grids[1 : 1 + dim], grids[1 + dim]
 
     # named for the reverse pass: `integrate_pure` keeps these small grid arrays per step
