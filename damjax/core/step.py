@@ -169,9 +169,8 @@ def step(model: Model, state: State) -> State:
     # their arithmetic (the weak layer's law included) in every fusion that builds a
     # P2G row, and slower still in the 64-bit rows of fixed-point sums
     # (`transfer.materialise`; 1D baseline step 204 -> 176 us with float sums)
-    v_star, affine, fcap, u_p2g = transfer.materialise(
-        (v_star, affine, fcap, state.u), jnp.isfinite(dt)
-    )
+    finite_dt = jnp.isfinite(dt)  # the barriers' runtime predicate (`transfer.materialise`)
+    v_star, affine, fcap, u_p2g = transfer.materialise((v_star, affine, fcap, state.u), finite_dt)
     st = transfer.stencil(model.cell0, model.frac0, u_p2g, dx, model.grid_shape, model.periodic)
     n_nodes = model.n_nodes
     S = len(st.w)
@@ -205,7 +204,7 @@ def step(model: Model, state: State) -> State:
     )
     # reverse mode gathers each grid's cotangent once per stencil row: computed into
     # buffers first, not re-evaluated per gathered particle (`transfer.tangent_barrier`)
-    grids = transfer.tangent_barrier(grids, jnp.isfinite(dt))
+    grids = transfer.tangent_barrier(grids, finite_dt)
     grid_mass, grid_mom, grid_cap = grids[0], grids[1 : 1 + dim], grids[1 + dim]
 
     # named for the reverse pass: `integrate_pure` keeps these small grid arrays per step
