@@ -87,11 +87,10 @@ def crack_speed(time: np.ndarray, tip: np.ndarray, window: float = SPEED_WINDOW)
         return np.zeros_like(tip)
     dt = float(time[1] - time[0])
     k = max(1, int(round(0.5 * window / dt)))
-    padded = np.concatenate([np.full(k, tip[0]), tip, np.full(k, tip[-1])])
-    speed = (padded[2 * k :] - padded[: -2 * k]) / (2 * k * dt)
-    # the ends see a one-sided window
-    speed[:k] *= 2 * k / (np.arange(k) + k)
-    speed[-k:] *= 2 * k / (np.arange(k, 0, -1) + k - 1)
+    # the ends (and a record shorter than the window) see a one-sided, shorter window
+    i = np.arange(tip.size)
+    lo, hi = np.maximum(i - k, 0), np.minimum(i + k, tip.size - 1)
+    speed = (tip[hi] - tip[lo]) / ((hi - lo) * dt)
     return speed
 
 

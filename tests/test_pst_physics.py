@@ -216,3 +216,16 @@ def test_1d_and_2d_paths_agree(lateral, arresting_params):
     assert r2.arrest_position == pytest.approx(r1.arrest_position, rel=0.03)
     v1, v2 = r1.summary["max_crack_speed_over_cs"], r2.summary["max_crack_speed_over_cs"]
     assert v2 == pytest.approx(v1, rel=0.03)
+
+
+def test_crack_speed_of_a_record_shorter_than_its_window():
+    """A run shorter than the 0.02 s speed window (a smoke test of a few steps) gets a
+    speed from the shorter one-sided windows instead of failing."""
+    from damjax.diagnostics import SPEED_WINDOW, crack_speed
+
+    for n in (3, 20, 150, 400):  # dt = 1e-4 s: 2k = 200 samples span the window
+        t = np.arange(n) * 1e-4
+        assert n * 1e-4 < SPEED_WINDOW or n == 400
+        np.testing.assert_allclose(crack_speed(t, 2.5 + 7.0 * t), 7.0, rtol=1e-9)
+    r = simulate_pst(PSTParams(steady_length=2.0), PSTSetup(length=4.0, dx=0.1, duration=0.005))
+    assert np.isfinite(r.summary["max_crack_speed_over_cs"])
