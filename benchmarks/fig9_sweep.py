@@ -211,7 +211,8 @@ def main(argv: list[str]) -> int:
     if not a.no_check_dx and not a.small:
         probe = {**BASE, "strength_gradient": 300.0}
         fine = PSTSetup(length=length, dx=0.02, duration=duration, chunk_steps=2000, **slab)
-        coarse = next((r for r in rows if r["params"] == probe), run_batch([probe], setup)[0])
+        coarse = next((r for r in rows if r["params"] == probe), None)
+        coarse = coarse or run_batch([probe], setup)[0]  # only when the sweep lacks it
         check = run_batch([probe], fine)[0]
         print(
             json.dumps(

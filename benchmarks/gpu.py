@@ -1,9 +1,12 @@
 """One prepared command for a GPU (or any device): the GPU-relevant tests and figures.
 
-    python -m benchmarks gpu                    # everything (about 8 min on one H100/H200)
+    python -m benchmarks gpu                    # every part (about 15 min on one H100/H200)
     python -m benchmarks gpu --dry-run          # every part at toy size (CI; any device)
     python -m benchmarks gpu --no-tests         # the figures only
     python -m benchmarks gpu --parts pst_f32,repeat --timeout 300
+    python -m benchmarks gpu --parts acceptance # the throughput figures (about 7 min)
+    python -m benchmarks gpu --parts checks     # the rest: tests, determinism, gradients
+    python -m benchmarks.gpu --prepare DIR      # the old tree and wheels for a bare machine
 
 Every part runs in its own process (a crash, an out-of-memory or a hang of one part is
 reported and the rest still run) and prints JSON lines on stdout, each with ``part``,
@@ -23,6 +26,18 @@ prints one line with ``error``. The parts:
   the option exists;
 - ``ensemble16``: 16 Fig. 12a members as one ensemble against 16 sequential runs
   (`benchmarks.ensemble16`'s parts);
+- ``pst_f32_old``: the baseline PST of this checkout against the code of an older commit
+  (``OLD_COMMIT``, the code of the 2026-11-26 H200 figures), alternated, each run in its
+  own process: the old tree from ``DAMJAX_OLD_TREE`` (an export made with ``--prepare``)
+  or else a ``git worktree``;
+- ``sweep256``: `benchmarks.throughput`'s 256 baseline PSTs through `damjax.sweep`
+  against one PST at a time;
+- ``slope_large``: `benchmarks.throughput`'s 200 m x 200 m slope (4 M particles), one run
+  and the 32-member ensemble, each timed over a window of steps and extrapolated to the
+  14 500 steps (``DAMJAX_SLOPE_WINDOW``; ``python -m benchmarks slope_large`` alone runs
+  every step on a GPU);
+- ``mpm88``: `benchmarks.mpm88`'s rows (3 to 200 particles per cell and the 2 x 2
+  lattice) with Taichi on the same backend as the peer where taichi is importable;
 - ``tests``: pytest on the GPU-relevant test files (``-x -q``, several workers with
   ``XLA_PYTHON_CLIENT_PREALLOCATE=false``).
 """
@@ -33,12 +48,15 @@ import argparse
 import contextlib
 import dataclasses
 import datetime
+import io
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 import traceback
@@ -354,6 +372,145 @@ def part_ensemble16(sizes: Sizes) -> None:
         _emit(**row)
 
 
+# the code of the H200 figures of 2026-11-26 (baseline PST 1.23 s): `pst_f32_old`'s default
+OLD_COMMIT = "f14d8a0"
+OLD_ROUNDS = 2
+# one baseline PST in the tree on PYTHONPATH: `benchmarks.cases._pst_row`, which both trees
+# have; the sizes as JSON (null: the tree's own defaults, the baseline)
+_OLD_CHILD = """
+import json, sys
+from benchmarks.cases import _pst_row
+from damjax import PSTParams, PSTSetup
+p, s = json.loads(sys.argv[1])
+print(json.dumps(_pst_row("pst_f32", PSTParams(**(p or {})), PSTSetup(**(s or {})))))
+"""
+
+
+@contextlib.contextmanager
+def _old_tree(dry: bool) -> Iterator[tuple[Path, str]]:
+    """The older code's checkout and its commit: ``DAMJAX_OLD_TREE`` (its commit in the
+    tree's ``COMMIT`` file, else ``DAMJAX_OLD_COMMIT``), else, on a --dry-run, this checkout
+    (the mechanics only), else a temporary ``git worktree`` of ``DAMJAX_OLD_COMMIT``
+    (default `OLD_COMMIT`)."""
+    commit = os.environ.get("DAMJAX_OLD_COMMIT", OLD_COMMIT)
+    given = os.environ.get("DAMJAX_OLD_TREE")
+    if given:
+        tree = Path(given).resolve()
+        if not (tree / "damjax").is_dir() or not (tree / "benchmarks").is_dir():
+            raise RuntimeError(
+                f"DAMJAX_OLD_TREE = {given!r} has no damjax/ and benchmarks/ "
+                "(make one with: python -m benchmarks.gpu --prepare DIR)"
+            )
+        stamp = tree / "COMMIT"
+        yield tree, (stamp.read_text().strip() if stamp.is_file() else commit)
+        return
+    if dry:
+        yield ROOT, "this checkout (dry run)"
+        return
+    with tempfile.TemporaryDirectory(prefix="damjax-old-") as tmp:
+        tree = Path(tmp) / "tree"
+        add = subprocess.run(
+            ["git", "worktree", "add", "--detach", str(tree), commit],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        )
+        if add.returncode != 0:
+            raise RuntimeError(
+                f"no checkout of {commit}: git worktree failed ({add.stderr.strip()[-300:]}); "
+                "set DAMJAX_OLD_TREE to an export (python -m benchmarks.gpu --prepare DIR)"
+            )
+        try:
+            yield tree, commit
+        finally:
+            subprocess.run(
+                ["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True
+            )
+
+
+def _pst_in_tree(tree: Path, spec: str) -> dict:
+    env = {**_child_env(False), "PYTHONPATH": str(tree)}
+    res = subprocess.run(
+        [sys.executable, "-c", _OLD_CHILD, spec], cwd=tree, env=env, capture_output=True, text=True
+    )
+    if res.returncode != 0:
+        raise RuntimeError(f"the PST in {tree} failed: {res.stderr[-1500:]}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def part_pst_f32_old(sizes: Sizes) -> None:
+    """The baseline PST of this checkout and of the older code, alternated (the order
+    flips every round), each in its own process; a row per run and a summary row with the
+    median times and ``new_over_old``."""
+    import statistics
+
+    spec = json.dumps(
+        [dataclasses.asdict(sizes.pst_params()), dataclasses.asdict(sizes.pst())]
+        if sizes.dry
+        else [None, None]
+    )
+    walls: dict[str, list[float]] = {"new": [], "old": []}
+    with _old_tree(sizes.dry) as (old_tree, old_commit):
+        trees = {"new": ROOT, "old": old_tree}
+        rounds = 1 if sizes.dry else OLD_ROUNDS
+        for r in range(rounds):
+            for side in ("old", "new") if r % 2 == 0 else ("new", "old"):
+                row = _pst_in_tree(trees[side], spec)
+                walls[side].append(row["wall_time_s"])
+                _emit(
+                    **{**row, "case": "pst_f32_old_new_run"},
+                    side=side,
+                    code=old_commit if side == "old" else "this checkout",
+                    round=r,
+                )
+    med = {k: statistics.median(v) for k, v in walls.items()}
+    _emit(
+        case="pst_f32_old_new",
+        old_commit=old_commit,
+        rounds=rounds,
+        wall_time_s=med["new"],
+        old_wall_time_s=med["old"],
+        new_over_old=round(med["new"] / med["old"], 3) if med["old"] else None,
+    )
+
+
+def _throughput_env(sizes: Sizes, **values: str) -> None:
+    """`benchmarks.throughput`'s settings: its toy sizes on a --dry-run, else ``values``
+    where the environment does not set them."""
+    if sizes.dry:
+        os.environ["DAMJAX_BENCH_DRY_RUN"] = "1"
+        return
+    for k, v in values.items():
+        os.environ.setdefault(k, v)
+
+
+def part_sweep256(sizes: Sizes) -> None:
+    from benchmarks import throughput
+
+    _throughput_env(sizes)
+    for row in throughput.sweep256_rows():
+        _emit(**row)
+
+
+def part_slope_large(sizes: Sizes) -> None:
+    from benchmarks import throughput
+
+    # a window of 800 steps of the 14 500 on a GPU: one run ~2 s on an H200, a slice of 8
+    # members ~15 s (from 0.59 ns per particle-step), against ~35 s and ~5 min for every step
+    _throughput_env(sizes, DAMJAX_SLOPE_EXTRAPOLATE="1", DAMJAX_SLOPE_WINDOW="4x200")
+    for row in throughput.slope_large_rows():
+        _emit(**row)
+
+
+def part_mpm88(sizes: Sizes) -> None:
+    from benchmarks import mpm88
+
+    ti = mpm88.taichi_init(mpm88.n_threads())
+    steps = 10 if sizes.dry else 100
+    for n, repeats, layout in [(1024, 1, "random")] if sizes.dry else mpm88.CASE_ROWS:
+        _emit(**mpm88.run_case(n, n_steps=steps, repeats=repeats, ti=ti, layout=layout))
+
+
 PARTS: dict[str, Callable[[Sizes], None]] = {
     "environment": part_environment,
     "pst_f32": part_pst_f32,
@@ -364,7 +521,27 @@ PARTS: dict[str, Callable[[Sizes], None]] = {
     "accumulation": part_accumulation,
     "ensemble16": part_ensemble16,
     "slope_1m": part_slope_1m,
+    "pst_f32_old": part_pst_f32_old,
+    "sweep256": part_sweep256,
+    "slope_large": part_slope_large,
+    "mpm88": part_mpm88,
     "tests": None,  # type: ignore[dict-item] # runs pytest from the parent (see _run_tests)
+}
+# --parts takes these names for their lists: the throughput and transfer figures, and the
+# correctness checks; each fits one 10-minute command on one H100/H200
+GROUPS: dict[str, tuple[str, ...]] = {
+    "acceptance": ("environment", "pst_f32_old", "pst_grad", "sweep256", "slope_large", "mpm88"),
+    "checks": (
+        "environment",
+        "pst_f32",
+        "slope",
+        "repeat",
+        "gradient_check",
+        "accumulation",
+        "ensemble16",
+        "slope_1m",
+        "tests",
+    ),
 }
 # the longest a part may take in the full run [s] (the tests get what is left)
 PART_TIMEOUT = {
@@ -373,6 +550,10 @@ PART_TIMEOUT = {
     "accumulation": 180.0,  # four runs, four compilations
     "ensemble16": 150.0,
     "slope_1m": 120.0,
+    "pst_f32_old": 180.0,  # four baseline PSTs in their own processes, four compilations
+    "sweep256": 150.0,
+    "slope_large": 150.0,  # builds of 4 M-particle members, two compilations, two windows
+    "mpm88": 150.0,  # five sizes, damjax twice and Taichi each
 }
 
 
@@ -629,11 +810,72 @@ def _run_part(
     return rows
 
 
+# wheels a bare GPU machine lacks (its Python: 3.12): the mpm88 peer and its one missing
+# dependency, and NetCDF output for the tests
+WHEELS = ("taichi==1.7.4", "dill", "h5netcdf")
+WHEEL_PLATFORMS = ("manylinux_2_27_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64")
+
+
+def prepare(folder: Path, commit: str | None = None, python_version: str = "3.12") -> int:
+    """Write ``folder/old`` (damjax/, benchmarks/ and pyproject.toml of the older commit,
+    with a ``COMMIT`` file) and ``folder/whl`` (`WHEELS` for ``python_version``), then print
+    the commands that run the figures on a machine whose checkout has ``folder`` in it."""
+    commit = commit or os.environ.get("DAMJAX_OLD_COMMIT", OLD_COMMIT)
+    old, whl = folder / "old", folder / "whl"
+    if old.exists():
+        shutil.rmtree(old)
+    old.mkdir(parents=True)
+    archive = subprocess.run(
+        ["git", "archive", "--format=tar", commit, "damjax", "benchmarks", "pyproject.toml"],
+        cwd=ROOT,
+        capture_output=True,
+    )
+    if archive.returncode != 0:
+        sys.stderr.write(f"git archive {commit} failed: {archive.stderr.decode()[-500:]}\n")
+        return 1
+    with tarfile.open(fileobj=io.BytesIO(archive.stdout)) as tar:
+        tar.extractall(old, filter="data")
+    (old / "COMMIT").write_text(commit + "\n")
+    cmd = [sys.executable, "-m", "pip", "download", "-q", "--no-deps", "--only-binary=:all:"]
+    cmd += ["--python-version", python_version, "--implementation", "cp", "-d", str(whl)]
+    for plat in WHEEL_PLATFORMS:
+        cmd += ["--platform", plat]
+    if subprocess.run([*cmd, *WHEELS]).returncode != 0:
+        sys.stderr.write("pip download failed; the older code is in place, the wheels are not\n")
+        return 1
+    rel = os.path.relpath(folder.resolve(), ROOT)
+    if rel.startswith(".."):
+        sys.stderr.write(
+            f"{folder} is outside the checkout {ROOT}: a machine that is sent the checkout "
+            "does not get it (.gpu-carry/ in the checkout is ignored by git)\n"
+        )
+    size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) / 2**20
+    print(f"wrote {folder} ({size:.1f} MiB): {old} ({commit}), {whl}")
+    print("on the GPU machine, in this checkout:")
+    print(
+        f"  python3 -m pip install -q --no-index --no-deps --target /tmp/site {rel}/whl/*.whl && "
+        f"export PYTHONPATH=/tmp/site:$PWD DAMJAX_OLD_TREE=$PWD/{rel}/old"
+    )
+    print("  python3 -m benchmarks gpu --parts acceptance --timeout 540   # then --parts checks")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks gpu", description=__doc__.split("\n")[0])
     p.add_argument("--dry-run", action="store_true", help="every part at toy size (CI)")
     p.add_argument("--no-tests", action="store_true", help="leave out the pytest part")
-    p.add_argument("--parts", default=None, help=f"comma-separated subset of {list(PARTS)}")
+    p.add_argument(
+        "--parts",
+        default=None,
+        help=f"comma-separated subset of {list(PARTS)}, or a group: {list(GROUPS)}",
+    )
+    p.add_argument(
+        "--prepare",
+        metavar="DIR",
+        default=None,
+        help="write what a bare GPU machine needs into DIR (old/: the older code; whl/: "
+        "taichi, h5netcdf and dill wheels for Python 3.12) and print the command to run there",
+    )
     p.add_argument(
         "--timeout",
         type=float,
@@ -653,10 +895,18 @@ def main(argv: list[str] | None = None) -> int:
     ns = p.parse_args(argv)
     if ns.run_part is not None:
         return _child(ns.run_part, ns.dry_run)
-    parts = list(PARTS) if ns.parts is None else [s for s in ns.parts.split(",") if s]
+    if ns.prepare is not None:
+        return prepare(Path(ns.prepare))
+    parts = list(PARTS) if ns.parts is None else []
+    for name in [] if ns.parts is None else [s for s in ns.parts.split(",") if s]:
+        parts += [n for n in GROUPS.get(name, (name,)) if n not in parts]
     unknown = [n for n in parts if n not in PARTS]
     if unknown:
-        p.error(f"unknown part(s) {unknown}; choose from {list(PARTS)}")
+        p.error(f"unknown part(s) {unknown}; choose from {list(PARTS)} or {list(GROUPS)}")
+    if not parts:
+        p.error(f"--parts names no part; choose from {list(PARTS)} or {list(GROUPS)}")
+    if ns.timeout is not None and not ns.timeout > 0:
+        p.error(f"--timeout = {ns.timeout}: must be a number of seconds > 0")
     if ns.no_tests:
         parts = [n for n in parts if n != "tests"]
     timeout = ns.timeout if ns.timeout is not None else (300.0 if ns.dry_run else 480.0)

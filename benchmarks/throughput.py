@@ -17,7 +17,9 @@ seconds; their rows carry ``"dry_run": true``.
   device on a CPU, up to 8 from memory elsewhere). Off a GPU the steps of a short window
   (``DAMJAX_SLOPE_WINDOW`` = "chunks x steps", default "3x20", after one warm-up chunk)
   are timed and the full run extrapolated from them (``"extrapolated": true``);
-  ``DAMJAX_SLOPE_FULL=1`` runs every step.
+  ``DAMJAX_SLOPE_FULL=1`` runs every step, ``DAMJAX_SLOPE_EXTRAPOLATE=1`` times the window
+  on a GPU too. The ensemble times one slice (``slices_timed``) and multiplies by the
+  slices.
 """
 
 from __future__ import annotations
@@ -39,6 +41,19 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def dry_run() -> bool:
     return os.environ.get("DAMJAX_BENCH_DRY_RUN", "") not in ("", "0")
+
+
+def _env_number(name: str, default: str, kind: type = int) -> Any:
+    """A positive number from the environment variable ``name``, with a clear error."""
+    text = os.environ.get(name, default)
+    try:
+        value = kind(text)
+        if not value > 0:
+            raise ValueError
+    except ValueError:
+        what = "an integer" if kind is int else "a number"
+        raise ValueError(f"{name} = {text!r}: must be {what} > 0") from None
+    return value
 
 
 def meta() -> dict[str, Any]:
@@ -79,13 +94,13 @@ def sweep256_rows() -> list[dict[str, Any]]:
     from damjax import PSTParams, PSTSetup, simulate_pst, sweep
 
     dry = dry_run()
-    members = int(os.environ.get("DAMJAX_SWEEP_MEMBERS", "8" if dry else "256"))
-    n_seq = int(os.environ.get("DAMJAX_SWEEP_SEQUENTIAL", "2" if dry else "4"))
+    members = _env_number("DAMJAX_SWEEP_MEMBERS", "8" if dry else "256")
+    n_seq = _env_number("DAMJAX_SWEEP_SEQUENTIAL", "2" if dry else "4")
     if dry:
         setup = PSTSetup(length=10.0, dx=0.05, duration=0.1, chunk_steps=100)
         base = dict(steady_length=4.0)
     else:
-        setup = PSTSetup(duration=float(os.environ.get("DAMJAX_BENCH_DURATION", "3")))
+        setup = PSTSetup(duration=_env_number("DAMJAX_BENCH_DURATION", "3", float))
         base = {}
     thetas = np.linspace(250.0, 1000.0, members)
     m = meta()
@@ -201,10 +216,11 @@ def slope_large_rows() -> list[dict[str, Any]]:
     from damjax.ensemble.spec import from_scenario
 
     dry = dry_run()
-    members = int(os.environ.get("DAMJAX_SLOPE_MEMBERS", "32"))
+    members = _env_number("DAMJAX_SLOPE_MEMBERS", "32")
     full = os.environ.get("DAMJAX_SLOPE_FULL", "") not in ("", "0")
+    window_anywhere = os.environ.get("DAMJAX_SLOPE_EXTRAPOLATE", "") not in ("", "0")
     on_cpu = jax.devices()[0].platform == "cpu"
-    extrapolate = not full and (on_cpu or dry)
+    extrapolate = not full and (on_cpu or dry or window_anywhere)
     chunks, steps = _window()
     scn = _large_scenario()
     ens = from_scenario(scn, members=members)
@@ -290,6 +306,7 @@ def slope_large_rows() -> list[dict[str, Any]]:
             window=window,
             slice_size=k,
             slices=n_slices,
+            slices_timed=1,
             slice_build_time_s=round(build_s, 3),
             compile_time_s=round(runner.compile_time_s, 3),
             window_time_s=round(wall, 3),

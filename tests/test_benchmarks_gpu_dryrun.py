@@ -60,6 +60,17 @@ def test_gpu_dry_run_prints_one_valid_line_per_part():
     }
     assert by_part["slope"][0]["ns_per_particle_step"] > 0
     assert by_part["slope_1m"][0]["ns_per_particle_step"] > 0
+    # the throughput figures: the older code alternated with this checkout, the sweep, the
+    # large slope (a window, extrapolated) and mpm88
+    old_rows = by_part["pst_f32_old"]
+    assert sorted(r["side"] for r in old_rows[:-1]) == ["new", "old"]
+    assert old_rows[-1]["case"] == "pst_f32_old_new" and old_rows[-1]["new_over_old"] > 0
+    assert [r["case"] for r in by_part["sweep256"]] == ["sweep256_sequential", "sweep256_batch"]
+    single, ens = by_part["slope_large"]
+    assert single["extrapolated"] is True and ens["slices_timed"] == 1
+    assert ens["wall_time_s"] > 0 and ens["slices"] * ens["slice_size"] >= ens["members"]
+    (m88,) = by_part["mpm88"]
+    assert m88["particle_steps_per_s"] > 0 and m88["particles_per_cell"] > 0
     (tests,) = by_part["tests"]
     assert tests["returncode"] == 0 and tests["passed"] == len(gpu.DRY_TESTS)
     assert tests["failed"] == 0
