@@ -5,7 +5,8 @@ Public API (one screen; the package's layers are mapped in CONTRIBUTING.md):
 - `SnowParams` (alias `PSTParams`): slab and weak-layer parameters, differentiable leaves;
 - `PSTSetup`, `simulate_pst` -> `PSTResult`: a propagation saw test;
 - `SlopeSetup`, `simulate_slope` -> `SlopeResult`: a slope-scale release on terrain;
-- `sweep`: a batch of PSTs as one vmapped (sharded) computation;
+- `sweep`: a batch of PSTs as one vmapped (sharded) computation (`last_sweep_plan`: how
+  the last one was sliced);
 - `gradient_check`: AD of the crack length against the event-based arrest over a window;
 - `arrest_position_smooth`: differentiable surrogate of the arrest position (JAX), with
   `make_layout` (the static grid and step count) for use under `jax.grad`/`jit`/`vmap`;
@@ -21,7 +22,7 @@ from damjax.params import PSTParams, PSTSetup, SlopeSetup, SnowParams
 from damjax.pst import PSTResult, arrest_position_smooth, make_layout, simulate_pst
 from damjax.sensitivity import gradient_check
 from damjax.slope import SlopeResult, simulate_slope
-from damjax.sweep import sweep
+from damjax.sweep import last_sweep_plan, sweep
 
 __all__ = [
     "PSTParams",
@@ -42,5 +43,6 @@ __all__ = [
     "simulate_pst",
     "simulate_slope",
     "sweep",
+    "last_sweep_plan",
     "theory",
 ]

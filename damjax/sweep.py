@@ -12,7 +12,9 @@ Memory: ``batch_size`` runs the batch in slices of that size with `jax.lax.map`.
 it the slice size comes from the compiled program's memory analysis, as an ensemble's
 (`damjax.ensemble`): the whole batch vmapped when XLA's peak estimate fits in
 ``memory_fraction`` of the device's free memory, else the largest slice that fits (at
-least one member). `last_plan` holds the choice and the memory figures of the last call.
+least one member); on a CPU slices of at most `CPU_SLICE` members, since a large vmapped
+batch outgrows the caches. `damjax.last_sweep_plan()` returns that choice and the memory figures
+of the last call (a `SweepPlan`).
 Devices: the batch axis is sharded over every device with `jax.sharding`
 (`NamedSharding` over a 1D mesh named "batch"), so the same call uses all GPUs of a
 machine; on several hosts call `jax.distributed.initialize()` first and the mesh spans
@@ -22,6 +24,7 @@ all processes' devices.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any
 
 import jax
@@ -94,14 +97,15 @@ def member(params_batch: PSTParams, i: int) -> PSTParams:
 
 @dataclasses.dataclass
 class SweepPlan:
-    """How `sweep` cut its batch (per device; `last_plan` after a call).
+    """How `sweep` cut its batch (per device; `damjax.last_sweep_plan()` after a call).
 
     Attributes:
         members: batch members run (B).
         members_per_device: members each device runs, padding included.
         slice_size: members per `jax.lax.map` slice on a device (== members_per_device:
             the whole batch vmapped in one slice).
-        chosen: "memory" (from XLA's estimate) or "given" (``batch_size``).
+        chosen: "memory" (from XLA's estimate), "cpu" (`CPU_SLICE` members per slice on a
+            CPU) or "given" (``batch_size``).
         peak_bytes_per_device: XLA's peak estimate of the compiled chunk that ran
             (None where the backend gives none).
         peak_bytes_whole_batch: the estimate for the whole batch vmapped (None when
@@ -121,13 +125,25 @@ class SweepPlan:
 
     @property
     def bytes_per_member(self) -> float | None:
-        """Peak estimate of the whole batch vmapped per member on a device [bytes]."""
-        if self.peak_bytes_whole_batch is None:
-            return None
-        return self.peak_bytes_whole_batch / self.members_per_device
+        """Peak estimate per member on a device [bytes]: of the whole batch vmapped where
+        that was compiled, else of the program that ran (every member's state and one
+        slice's temporaries)."""
+        peak = self.peak_bytes_whole_batch or self.peak_bytes_per_device
+        return None if peak is None else peak / self.members_per_device
 
 
 last_plan: SweepPlan | None = None
+# members per slice on a CPU without ``batch_size``: 64 baseline PSTs (0.1 s) took
+# 541 / 432 / 453 / 522 / 676 ms per member in slices of 4 / 8 / 16 / 32 / all 64, and in a
+# second round 600 / 307 / 423 ms in slices of 4 / 8 / 16 (2-core AMD EPYC, 2026-11-26,
+# `damjax.sweep(..., batch_size=...)`): a large vmapped batch outgrows the caches
+CPU_SLICE = 8
+
+
+def last_sweep_plan() -> SweepPlan | None:
+    """How the last `damjax.sweep` call of this process cut its batch (None before one):
+    the slice size, whether memory or ``batch_size`` chose it, and XLA's peak estimates."""
+    return last_plan
 
 
 def _slice_size(per_dev: int, peak: int | None, temp: int | None, budget: int) -> int:
@@ -229,7 +245,8 @@ def sweep(
                 in_specs=PartitionSpec("batch"),
                 out_specs=PartitionSpec("batch"),
             )
-        return jax.jit(body, compiler_options=cpu_compiler_options())
+        # the states are donated: a chunk updates them in place (as a single run does)
+        return jax.jit(body, donate_argnums=(1,), compiler_options=cpu_compiler_options())
 
     import time
 
@@ -243,15 +260,29 @@ def sweep(
         compiled = chunk_program(size).lower(models, states).compile()
         chosen, slice_size = "given", per_dev if size is None else min(size, per_dev)
     else:
-        compiled = chunk_program(None).lower(models, states).compile()
-        whole = peak_bytes(compiled)
-        slice_size, chosen = per_dev, "memory"
+        on_cpu = all(d.platform == "cpu" for d in jax.devices()[:n_dev])
+        if on_cpu and per_dev > CPU_SLICE:
+            # on a CPU a large vmapped batch outgrows the caches (see CPU_SLICE)
+            slice_size, chosen = CPU_SLICE, "cpu"
+            compiled = chunk_program(slice_size).lower(models, states).compile()
+        else:
+            slice_size, chosen = per_dev, "memory"
+            compiled = chunk_program(None).lower(models, states).compile()
+            whole = peak_bytes(compiled)
         for _ in range(3):  # the temporaries shrink about in proportion to the slice
             new = _slice_size(slice_size, peak_bytes(compiled), temp_bytes(compiled), budget)
             if new >= slice_size:
                 break
-            slice_size = new
+            slice_size, chosen = new, "memory"
             compiled = chunk_program(slice_size).lower(models, states).compile()
+        peak = peak_bytes(compiled)
+        if peak is not None and peak > budget:
+            warnings.warn(
+                f"sweep: XLA's peak estimate {peak / 2**20:.0f} MiB per device (slices of "
+                f"{slice_size}) exceeds memory_fraction x free memory = {budget / 2**20:.0f} "
+                "MiB; the members' states alone may not fit: run fewer members per call",
+                stacklevel=2,
+            )
     last_plan = SweepPlan(
         members=n,
         members_per_device=per_dev,

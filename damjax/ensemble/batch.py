@@ -187,6 +187,15 @@ def _finish_member(scn: Any, state: Any, layout: Any) -> Any:
     return simulate(scn, state=state, start_chunk=layout.n_chunks)
 
 
+# how a plan's slice size was chosen, as the log says it
+CHOSEN_TEXT = {
+    "memory": "from XLA's memory estimate",
+    "cpu": "one member per CPU device",
+    "given": "given",
+    "stored": "stored with the ensemble",
+}
+
+
 @dataclasses.dataclass
 class Plan:
     """How an ensemble is cut: the slice size, the shared layout, the memory figures."""
@@ -197,7 +206,7 @@ class Plan:
     peak_bytes_per_device: int | None
     budget_bytes_per_device: int
     devices_per_process: int
-    chosen: str  # "memory", "given" or "stored"
+    chosen: str  # a key of CHOSEN_TEXT
 
     def slices(self, members: int) -> list[tuple[int, int]]:
         """Member ranges ``(start, stop)`` of ``slice_size`` members covering ``members``."""
@@ -272,9 +281,12 @@ def run(
         budget = int(memory_fraction * _free_memory_bytes(devices[0]) / max(1, n_dev))
         per_dev_cap = max(1, math.ceil(ens.members / (n_dev * n_proc)))
         if given is not None:
+            if given > ens.members:  # a larger slice would only run padding members
+                say(f"slice size {given} > {ens.members} members: slices of {ens.members}")
+                given = ens.members
             per_dev, chosen = max(1, math.ceil(given / n_dev)), "given"
         elif all(d.platform == "cpu" for d in devices):
-            per_dev, chosen = 1, "memory"  # on CPU: see MAX_PER_DEVICE
+            per_dev, chosen = 1, "cpu"  # on CPU: see MAX_PER_DEVICE
         else:
             per_dev, chosen = min(MAX_PER_DEVICE, per_dev_cap), "memory"
         while True:
@@ -309,7 +321,8 @@ def run(
     k_pad = math.ceil(size / n_dev) * n_dev
     say(
         f"ensemble of {ens.members} members, slices of {size} "
-        f"({plan.chosen}; peak {_mib(plan.peak_bytes_per_device)} per device, budget "
+        f"({CHOSEN_TEXT.get(plan.chosen, plan.chosen)}; peak "
+        f"{_mib(plan.peak_bytes_per_device)} per device, budget "
         f"{_mib(plan.budget_bytes_per_device)}), {n_dev} device(s) x {n_proc} process(es)"
     )
 
