@@ -34,7 +34,7 @@ prints one line with ``error``. The parts:
   against one PST at a time;
 - ``slope_large``: `benchmarks.throughput`'s 200 m x 200 m slope (4 M particles), one run
   and the 32-member ensemble, each timed over a window of steps and extrapolated to the
-  14 500 steps (``DAMJAX_SLOPE_WINDOW``; ``python -m benchmarks slope_large`` alone runs
+  14 100 steps (``DAMJAX_SLOPE_WINDOW``; ``python -m benchmarks slope_large`` alone runs
   every step on a GPU);
 - ``mpm88``: `benchmarks.mpm88`'s rows (3 to 200 particles per cell and the 2 x 2
   lattice) with Taichi on the same backend as the peer where taichi is importable;
@@ -495,7 +495,7 @@ def part_sweep256(sizes: Sizes) -> None:
 def part_slope_large(sizes: Sizes) -> None:
     from benchmarks import throughput
 
-    # a window of 800 steps of the 14 500 on a GPU: one run ~2 s on an H200, a slice of 8
+    # a window of 800 steps of the 14 100 on a GPU: one run ~2 s on an H200, a slice of 8
     # members ~15 s (from 0.59 ns per particle-step), against ~35 s and ~5 min for every step
     _throughput_env(sizes, DAMJAX_SLOPE_EXTRAPOLATE="1", DAMJAX_SLOPE_WINDOW="4x200")
     for row in throughput.slope_large_rows():

@@ -60,8 +60,9 @@ def gradient_check(
         n_runs: runs in each window, odd, in [3, 1001].
         tolerance: relative error accepted for the verdict, > 0.
         batch_size: run the forward runs and gradients in slices of this many members
-            (`jax.lax.map`; default: all at once), bounding memory: a gradient holds
-            about twice a forward run's memory per member.
+            (`jax.lax.map`), bounding memory: a gradient holds about twice a forward run's
+            memory per member. Default: the forward runs sliced as `damjax.sweep` slices
+            them (from memory), the gradients one at a time.
     """
     fields = [field] if isinstance(field, str) else list(field)
     names = [f.name for f in dataclasses.fields(PSTParams)]

@@ -137,6 +137,11 @@ def _leaf_values(value: Any) -> list[float] | None:
     return [float(x) for x in arr]
 
 
+def _members(index: list[int]) -> str:
+    shown = ", ".join(str(i) for i in index[:5])
+    return shown + (f" and {len(index) - 5} more" if len(index) > 5 else "")
+
+
 def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str]:
     """One line per invalid parameter value (empty when all are valid)."""
     import numpy as np
@@ -170,9 +175,12 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
         if values is None or not values:
             problems.append(_problem(name, getattr(params, name), valid + " (a number)"))
             continue
-        bad = [v for v in values if math.isnan(v) or not ok(v)]
+        bad = [i for i, v in enumerate(values) if math.isnan(v) or not ok(v)]
         if bad:
-            problems.append(_problem(name, bad[0], valid))
+            line = _problem(name, values[bad[0]], valid)
+            if len(values) > 1:  # a batch: which members
+                line += f" (batch member{'s' if len(bad) > 1 else ''} {_members(bad)})"
+            problems.append(line)
     if problems:
         return problems
     # consistency checks between fields (elementwise over a batch)

@@ -57,3 +57,15 @@ def test_inversion_recovers_a_known_strength_gradient():
         args.update(kw)
         with pytest.raises(ValueError, match=needle):
             calibrate.invert(setup=setup, **args)
+
+
+def test_scaling_fits_say_which_runs_were_left_out():
+    from types import SimpleNamespace
+
+    from damjax.calibrate import fit_elastic_scaling, fit_plastic_scaling
+
+    running = SimpleNamespace(arrested=False)
+    with pytest.raises(ValueError, match=r"need at least 3 runs to fit, got 0 of 2: 2 not arr"):
+        fit_elastic_scaling([running, running])
+    with pytest.raises(ValueError, match="not arrested with a finite tensile strength"):
+        fit_plastic_scaling([running])

@@ -50,3 +50,9 @@ def test_on_a_cpu_a_large_batch_runs_in_slices_of_cpu_slice(monkeypatch):
     given = damjax.sweep(batch, SETUP, batch_size=2)
     for a, b in zip(auto, given, strict=True):
         assert a.summary["final_tip_m"] == b.summary["final_tip_m"]
+
+
+def test_an_invalid_batch_member_is_named():
+    batch = PSTParams(steady_length=4.0, strength_gradient=jnp.array([1000.0, np.nan, -1.0]))
+    with pytest.raises(ValueError, match=r"strength_gradient .* \(batch members 1, 2\)"):
+        damjax.sweep(batch, SETUP)

@@ -139,7 +139,17 @@ def fit_elastic_scaling(results: Sequence[Any]) -> PowerLawFit:
         for r in rs
     ]
     keep = [i for i, v in enumerate(y) if v > 0]
+    _enough("fit_elastic_scaling", len(results), len(rs), len(keep), "arrested")
     return fit_power_law([x[i] for i in keep], [y[i] for i in keep])
+
+
+def _enough(name: str, given: int, eligible: int, kept: int, which: str) -> None:
+    """A clear error when fewer than 3 runs are left to fit, saying which were dropped."""
+    if kept < 3:
+        raise ValueError(
+            f"{name}: need at least 3 runs to fit, got {kept} of {given}: {given - eligible} "
+            f"not {which}, {eligible - kept} arrested at or below the steady-state length"
+        )
 
 
 def fit_plastic_scaling(results: Sequence[Any]) -> PowerLawFit:
@@ -151,4 +161,6 @@ def fit_plastic_scaling(results: Sequence[Any]) -> PowerLawFit:
         for r in rs
     ]
     keep = [i for i, v in enumerate(y) if v > 0]
+    which = "arrested with a finite tensile strength"
+    _enough("fit_plastic_scaling", len(results), len(rs), len(keep), which)
     return fit_power_law([x[i] for i in keep], [y[i] for i in keep])

@@ -273,7 +273,7 @@ def from_scenario(
     kw = check_table({} if table is None else table, scn, problems)
     if members is not None:
         if not _is_int(members, 1):
-            problems.append(f"--members = {members!r}: must be an integer >= 1")
+            problems.append(f"members = {members!r}: must be an integer >= 1")
         else:
             kw["members"] = int(members)
     if problems:
