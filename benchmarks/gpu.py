@@ -429,7 +429,9 @@ def _old_tree(dry: bool) -> Iterator[tuple[Path, str]]:
 
 
 def _pst_in_tree(tree: Path, spec: str) -> dict:
-    env = {**_child_env(False), "PYTHONPATH": str(tree)}
+    # the tree first; the rest of PYTHONPATH stays (a bare machine's wheels in /tmp/site)
+    path = [str(tree), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    env = {**_child_env(False), "PYTHONPATH": os.pathsep.join(path)}
     res = subprocess.run(
         [sys.executable, "-c", _OLD_CHILD, spec], cwd=tree, env=env, capture_output=True, text=True
     )
