@@ -94,6 +94,12 @@ GRADIENT_FIELDS = ("strength_gradient", "youngs_modulus", "wl_shear_modulus", "t
 # ------------------------------------------------------------------ sizes
 
 
+# the --dry-run PST, as keywords that older commits' PSTSetup / PSTParams also take (the
+# baseline's L_ss of 20 m needs more than the toy's 8 m)
+TOY_PST_SETUP = dict(length=8.0, dx=0.1, duration=0.05, chunk_steps=50)
+TOY_PST_PARAMS = dict(steady_length=3.0)
+
+
 @dataclasses.dataclass(frozen=True)
 class Sizes:
     """What each part runs: the full figures, or toy sizes for --dry-run."""
@@ -103,15 +109,13 @@ class Sizes:
     def pst(self):  # noqa: ANN201 - damjax.PSTSetup
         from damjax import PSTSetup
 
-        if self.dry:
-            return PSTSetup(length=8.0, dx=0.1, duration=0.05, chunk_steps=50)
-        return PSTSetup()  # 100 m, dx 0.02 m, 3 s: 40 000 steps
+        # 100 m, dx 0.02 m, 3 s: 40 000 steps
+        return PSTSetup(**TOY_PST_SETUP) if self.dry else PSTSetup()
 
     def pst_params(self):  # noqa: ANN201 - damjax.PSTParams
         from damjax import PSTParams
 
-        # the baseline (L_ss 20 m) needs more than the toy's 8 m
-        return PSTParams(steady_length=3.0) if self.dry else PSTParams()
+        return PSTParams(**TOY_PST_PARAMS) if self.dry else PSTParams()
 
     def slope(self, dx: float | None = None):  # noqa: ANN201 - GenericSlopeCase
         from damjax.slope.generic import GenericSlopeCase
@@ -446,11 +450,7 @@ def part_pst_f32_old(sizes: Sizes) -> None:
     median times and ``new_over_old``."""
     import statistics
 
-    spec = json.dumps(
-        [dataclasses.asdict(sizes.pst_params()), dataclasses.asdict(sizes.pst())]
-        if sizes.dry
-        else [None, None]
-    )
+    spec = json.dumps([TOY_PST_PARAMS, TOY_PST_SETUP] if sizes.dry else [None, None])
     walls: dict[str, list[float]] = {"new": [], "old": []}
     with _old_tree(sizes.dry) as (old_tree, old_commit):
         trees = {"new": ROOT, "old": old_tree}
@@ -584,9 +584,11 @@ def _git_commit() -> str | None:
             text=True,
             timeout=10,
         )
-        return res.stdout.strip() or None
+        commit = res.stdout.strip()
     except (OSError, subprocess.SubprocessError):
-        return None
+        commit = ""
+    # a copy without git history (a borrowed machine): the commit --prepare printed
+    return commit or os.environ.get("DAMJAX_COMMIT") or None
 
 
 def _child_meta() -> dict:
@@ -856,7 +858,8 @@ def prepare(folder: Path, commit: str | None = None, python_version: str = "3.12
     print("on the GPU machine, in this checkout:")
     print(
         f"  python3 -m pip install -q --no-index --no-deps --target /tmp/site {rel}/whl/*.whl && "
-        f"export PYTHONPATH=/tmp/site:$PWD DAMJAX_OLD_TREE=$PWD/{rel}/old"
+        f"export PYTHONPATH=/tmp/site:$PWD DAMJAX_OLD_TREE=$PWD/{rel}/old "
+        f"DAMJAX_COMMIT={_git_commit()}"
     )
     print("  python3 -m benchmarks gpu --parts acceptance --timeout 540   # then --parts checks")
     return 0
