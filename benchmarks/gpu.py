@@ -553,7 +553,7 @@ PART_TIMEOUT = {
     "ensemble16": 150.0,
     "slope_1m": 120.0,
     "pst_f32_old": 180.0,  # four baseline PSTs in their own processes, four compilations
-    "sweep256": 150.0,
+    "sweep256": 240.0,  # 256 PSTs of 40 000 steps: a few seconds at 50 x, 5 min at 1 x
     "slope_large": 150.0,  # builds of 4 M-particle members, two compilations, two windows
     "mpm88": 150.0,  # five sizes, damjax twice and Taichi each
 }
