@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import importlib
 import math
 import os
 import subprocess
@@ -91,7 +90,7 @@ def sweep256_rows() -> list[dict[str, Any]]:
     """One row for the PSTs one at a time, one for the batch (with the ratio)."""
     import jax.numpy as jnp
 
-    from damjax import PSTParams, PSTSetup, simulate_pst, sweep
+    from damjax import PSTParams, PSTSetup, last_sweep_plan, simulate_pst, sweep
 
     dry = dry_run()
     members = _env_number("DAMJAX_SWEEP_MEMBERS", "8" if dry else "256")
@@ -133,7 +132,7 @@ def sweep256_rows() -> list[dict[str, Any]]:
     t0 = time.perf_counter()
     res = sweep(batch, setup)
     end_to_end = time.perf_counter() - t0
-    plan = importlib.import_module("damjax.sweep").last_plan
+    plan = last_sweep_plan()
     s0 = res[0].summary
     loop = s0["wall_time_s"] * members  # the sweep reports its loop time per member
     work = members * s0["n_particles"] * s0["n_steps"]
