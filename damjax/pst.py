@@ -45,7 +45,7 @@ from damjax.core.step import (
 )
 from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup
-from damjax.validation import ensure_x64, require_x64, validate
+from damjax.validation import check_width, ensure_x64, require_x64, validate
 
 FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
 
@@ -536,6 +536,7 @@ def arrest_position_smooth(
     `damjax.diagnostics.smooth_arrest_position`).
     """
     require_x64(setup.dtype)
+    check_width(width)
     if layout is None:
         if _traced(params):
             fixing = [f for f in layout_fields(params) if _traced(getattr(params, f))]
@@ -553,6 +554,8 @@ def arrest_position_smooth(
             validate(params, setup)
             layout = make_layout(params, setup)
     else:
+        # through the tracers' values where JAX holds them (grad, vmap), as without a layout
+        validate(params, setup, batch=_traced(params))
         check_layout(params, setup, layout)
     model, final, _ = run_pure(params, setup, layout)
     return diagnostics_smooth(model, final, width)

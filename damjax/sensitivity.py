@@ -87,7 +87,7 @@ def gradient_check(
     for f in fields:
         if not problems:
             x0 = getattr(params, f)
-            if np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
+            if x0 is None or np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
                 problems.append(f"{f} = {x0!r}: the check needs a finite, nonzero scalar value")
     if problems:
         raise ValueError("\n".join(problems))

@@ -455,6 +455,19 @@ def dubious(
     return notes
 
 
+def check_width(width: Any) -> None:
+    """ValueError unless the smooth arrest position's damage-ramp ``width`` is None or a
+    number in (0, 1] (the ramp spans u_max / u_r in [1 - width, 1])."""
+    if width is None or is_traced(width):
+        return
+    try:
+        w = float(width)
+    except (TypeError, ValueError):
+        w = math.nan
+    if isinstance(width, bool) or not 0 < w <= 1:
+        raise ValueError(f"width = {width!r}: must be None or a number in (0, 1] [-]")
+
+
 def validate(
     params: PSTParams, setup: PSTSetup, *, warn_dubious: bool = True, batch: bool = False
 ) -> None:

@@ -1,5 +1,7 @@
 """Scaling-law fits and inversion through the solver."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -69,3 +71,35 @@ def test_scaling_fits_say_which_runs_were_left_out():
         fit_elastic_scaling([running, running])
     with pytest.raises(ValueError, match="not arrested with a finite tensile strength"):
         fit_plastic_scaling([running])
+
+
+def test_inversion_and_the_smooth_arrest_check_their_options():
+    """Options are checked before any run: a user's slip is named, not a NaN later."""
+    import jax
+
+    import damjax
+
+    params = PSTParams(steady_length=3.0, strength_gradient=3000.0, softening=1.0)
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2)
+    obs = [({"strength_gradient": 3000.0}, 4.0)]
+    for kw, msg in [
+        (dict(noise_std=0.0), r"noise_std = 0.0: must be a number in \(0, inf\)"),
+        (dict(fields=["softening", "softening"]), r"\['softening'\] named more than once"),
+        (dict(smooth_width=-1.0), r"smooth_width = -1.0: must be None or a number in \(0, 1\]"),
+        (dict(fields=["strength_profile"]), "strength_profile = None: a fitted field"),
+    ]:
+        kw = {"fields": ["softening"], **kw}
+        with pytest.raises(ValueError, match=msg):
+            calibrate.invert(obs, params, setup, **kw)
+    with pytest.raises(ValueError, match=r"overrides \['strength_gradiant'\] are not PSTP"):
+        calibrate.invert([({"strength_gradiant": 1.0}, 4.0)], params, setup, ["softening"])
+    layout = damjax.make_layout(params, setup)
+    with pytest.raises(ValueError, match=r"width = 5.0: must be None or a number in \(0, 1\]"):
+        damjax.arrest_position_smooth(params, setup, layout, width=5.0)
+    # under jax.grad with a layout the values JAX holds are checked as without one
+    with pytest.raises(ValueError, match=r"strength_gradient \(--strength-gradient\) = nan"):
+        jax.grad(
+            lambda th: damjax.arrest_position_smooth(
+                dataclasses.replace(params, strength_gradient=th), setup, layout
+            )
+        )(float("nan"))

@@ -100,3 +100,15 @@ def test_calibrate_slope_rejects_an_unknown_gradient_or_step(problem):
         sc.calibrate_slope(problem, observed, grid, steps=1, gradient="adjoint")
     with pytest.raises(ValueError, match=r"fd_step must be in \(0, 0.5\]"):
         sc.calibrate_slope(problem, observed, grid, steps=1, gradient="fd", fd_step=0.0)
+    # what a user gets wrong before any run: a misspelled field, a map of another grid,
+    # unobserved (NaN) cells, a start the logarithm cannot take
+    with pytest.raises(ValueError, match=r"initial \['tensile_strenght'\]: not one of"):
+        sc.calibrate_slope(problem, observed, grid, steps=1, initial={"tensile_strenght": 3e3})
+    with pytest.raises(ValueError, match=r"observed has shape \(2, 2\): must be the obs"):
+        sc.calibrate_slope(problem, np.zeros((2, 2)), grid, steps=1)
+    with pytest.raises(ValueError, match="observed has 1 non-finite cells"):
+        one_nan = observed.copy()
+        one_nan[0, 0] = np.nan
+        sc.calibrate_slope(problem, one_nan, grid, steps=1)
+    with pytest.raises(ValueError, match=r"initial tensile_strength = -2500.0: must be a n"):
+        sc.calibrate_slope(problem, observed, grid, steps=1, initial={"tensile_strength": -2500})

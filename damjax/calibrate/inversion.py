@@ -17,6 +17,7 @@ import numpy as np
 
 from damjax import pst
 from damjax.core.loop import cpu_compiler_options
+from damjax.validation import check_width
 
 
 @dataclasses.dataclass
@@ -29,6 +30,14 @@ class Inversion:
     hessian: np.ndarray  # Gauss-Newton Hessian of the misfit in log-parameter space
     condition_number: float
     std_errors: dict[str, float]  # from the Hessian and the assumed noise
+
+
+def _positive_scalar(value: Any) -> bool:
+    """A finite scalar number > 0 (None, arrays and strings are not)."""
+    try:
+        return np.ndim(value) == 0 and math.isfinite(float(value)) and float(value) > 0
+    except (TypeError, ValueError):
+        return False
 
 
 def invert(
@@ -64,14 +73,25 @@ def invert(
             f"params0.{f} = {getattr(params0, f)!r}: a fitted field must be in (0, inf) "
             "(the fit runs on its logarithm); start from a positive value"
             for f in fields
-            if not (
-                np.ndim(getattr(params0, f)) == 0
-                and math.isfinite(float(getattr(params0, f)))
-                and float(getattr(params0, f)) > 0
-            )
+            if not _positive_scalar(getattr(params0, f))
         ]
     if not fields:
         problems.append("fields: empty; name at least one PSTParams field to fit")
+    dup = sorted({f for f in fields if list(fields).count(f) > 1})
+    if dup:
+        problems.append(f"fields: {dup} named more than once")
+    if isinstance(noise_std, bool) or not (
+        np.ndim(noise_std) == 0 and math.isfinite(float(noise_std)) and float(noise_std) > 0
+    ):
+        problems.append(f"noise_std = {noise_std!r}: must be a number in (0, inf) [m]")
+    try:
+        check_width(smooth_width)
+    except ValueError as e:
+        problems.append(f"smooth_{e}")
+    for i, (over_i, _) in enumerate(observations):
+        bad = sorted(k for k in over_i if k not in known)
+        if bad:
+            problems.append(f"observations[{i}]: overrides {bad} are not PSTParams fields")
     if not observations:
         problems.append("observations: empty; give at least one (overrides, L_observed) pair")
     for i, (_, observed) in enumerate(observations):

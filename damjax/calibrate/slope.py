@@ -340,9 +340,26 @@ def calibrate_slope(
         raise ValueError(f"calibrate_slope: cannot fit {bad}; choose from {CALIBRATED}")
     p = problem.params
     start = {"tensile_strength": float(p.tensile_strength), "softening": float(p.softening)}
-    start.update(initial or {})
-    if start["softening"] <= 0 and "softening" in fields:
-        raise ValueError("calibrate_slope: fitting softening needs a positive initial value")
+    unknown = sorted(k for k in (initial or {}) if k not in start)
+    if unknown:
+        raise ValueError(f"calibrate_slope: initial {unknown}: not one of {CALIBRATED}")
+    start.update({k: float(v) for k, v in (initial or {}).items()})
+    for f in fields:  # the fit runs on the logarithms
+        if not (math.isfinite(start[f]) and start[f] > 0):
+            raise ValueError(
+                f"calibrate_slope: initial {f} = {start[f]!r}: must be a number in (0, inf)"
+            )
+    obs = np.asarray(observed, float)
+    if obs.shape != tuple(grid.shape):
+        raise ValueError(
+            f"calibrate_slope: observed has shape {obs.shape}: must be the observation grid's "
+            f"{tuple(grid.shape)} (calibrate.slope.observation_grid)"
+        )
+    if not np.all(np.isfinite(obs)):
+        raise ValueError(
+            f"calibrate_slope: observed has {int(np.sum(~np.isfinite(obs)))} non-finite "
+            "cells: must be 0 (not released) to 1 (released) everywhere"
+        )
     dtype = problem.model.p0_init.dtype
     fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
