@@ -15,6 +15,7 @@ other jobs the CPU-time ratio is the steadier figure.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import resource
@@ -24,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +66,28 @@ def _short(rev: str, cwd: Path) -> str:
     ).stdout.strip()
 
 
+@contextlib.contextmanager
+def worktree(commit: str, prefix: str = "damjax-alternate-") -> Iterator[Path]:
+    """A temporary ``git worktree`` of ``commit`` (removed afterwards); CalledProcessError
+    when git cannot make one (no repository, unknown commit)."""
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
+    tree = tmp / "tree"
+    try:
+        subprocess.run(
+            ["git", "worktree", "add", "--detach", str(tree), commit],
+            cwd=ROOT,
+            check=True,
+            capture_output=True,
+            text=True,
+        )
+        yield tree
+    finally:
+        subprocess.run(
+            ["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True
+        )
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", required=True, help="the commit to compare with (any git revision)")
@@ -83,17 +107,9 @@ def main(argv: list[str] | None = None) -> int:
         ).stdout.strip()
     )
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    tmp = Path(tempfile.mkdtemp(prefix="damjax-alternate-"))
-    old_tree = tmp / old
-    subprocess.run(
-        ["git", "worktree", "add", "--detach", str(old_tree), old],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-    )
-    sides = {"old": old_tree, "new": ROOT}
     results: dict[tuple[str, str], list[dict[str, Any]]] = {}
-    try:
+    with worktree(old) as old_tree:
+        sides = {"old": old_tree, "new": ROOT}
         for r in range(args.rounds):
             order = ("old", "new") if r % 2 == 0 else ("new", "old")
             for case in args.cases:
@@ -104,11 +120,6 @@ def main(argv: list[str] | None = None) -> int:
                         row["dirty"] = dirty
                     print(json.dumps(row), flush=True)
                     results.setdefault((case, side), []).append(row)
-    finally:
-        subprocess.run(
-            ["git", "worktree", "remove", "--force", str(old_tree)], cwd=ROOT, capture_output=True
-        )
-        shutil.rmtree(tmp, ignore_errors=True)
     for case in args.cases:
         summ: dict[str, Any] = dict(
             case=f"alternate_{case}", old=old, new=new, dirty=dirty, rounds=args.rounds

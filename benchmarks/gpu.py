@@ -411,25 +411,16 @@ def _old_tree(dry: bool) -> Iterator[tuple[Path, str]]:
     if dry:
         yield ROOT, "this checkout (dry run)"
         return
-    with tempfile.TemporaryDirectory(prefix="damjax-old-") as tmp:
-        tree = Path(tmp) / "tree"
-        add = subprocess.run(
-            ["git", "worktree", "add", "--detach", str(tree), commit],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-        )
-        if add.returncode != 0:
-            raise RuntimeError(
-                f"no checkout of {commit}: git worktree failed ({add.stderr.strip()[-300:]}); "
-                "set DAMJAX_OLD_TREE to an export (python -m benchmarks.gpu --prepare DIR)"
-            )
-        try:
+    from benchmarks.alternate import worktree
+
+    try:
+        with worktree(commit, prefix="damjax-old-") as tree:
             yield tree, commit
-        finally:
-            subprocess.run(
-                ["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True
-            )
+    except subprocess.CalledProcessError as e:
+        raise RuntimeError(
+            f"no checkout of {commit}: git worktree failed ({(e.stderr or '').strip()[-300:]}); "
+            "set DAMJAX_OLD_TREE to an export (python -m benchmarks.gpu --prepare DIR)"
+        ) from None
 
 
 def _pst_in_tree(tree: Path, spec: str) -> dict:

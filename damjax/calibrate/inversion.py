@@ -80,9 +80,7 @@ def invert(
     dup = sorted({f for f in fields if list(fields).count(f) > 1})
     if dup:
         problems.append(f"fields: {dup} named more than once")
-    if isinstance(noise_std, bool) or not (
-        np.ndim(noise_std) == 0 and math.isfinite(float(noise_std)) and float(noise_std) > 0
-    ):
+    if isinstance(noise_std, bool) or not _positive_scalar(noise_std):
         problems.append(f"noise_std = {noise_std!r}: must be a number in (0, inf) [m]")
     try:
         check_width(smooth_width)
