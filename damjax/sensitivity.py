@@ -31,7 +31,7 @@ from damjax import pst
 from damjax.diagnostics import GradientCheck, compare_gradient
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
 from damjax.sweep import sweep
-from damjax.validation import ensure_x64, validate
+from damjax.validation import check_width, ensure_x64, validate
 
 
 def gradient_check(
@@ -43,6 +43,7 @@ def gradient_check(
     n_runs: int = 11,
     tolerance: float = 0.1,
     batch_size: int | None = None,
+    width: float | None = None,
 ) -> GradientCheck | list[GradientCheck]:
     """AD of the continuous crack length [m] with respect to ``field`` over the window
     field x (1 - rel_window .. 1 + rel_window) (``n_runs`` runs, centred on ``params``)
@@ -63,6 +64,10 @@ def gradient_check(
             (`jax.lax.map`), bounding memory: a gradient holds about twice a forward run's
             memory per member. Default: the forward runs sliced as `damjax.sweep` slices
             them (from memory), the gradients one at a time.
+        width: the damage ramp of the continuous length (`damjax.arrest_position_smooth`'s
+            ``width``): None (default) for the failed fraction, or a relative width in
+            (0, 1], 0.5 where slab fractures stop the crack. The reported lengths are
+            those of the differentiated length.
     """
     fields = [field] if isinstance(field, str) else list(field)
     names = [f.name for f in dataclasses.fields(PSTParams)]
@@ -89,6 +94,10 @@ def gradient_check(
             x0 = getattr(params, f)
             if x0 is None or np.ndim(x0) != 0 or not np.isfinite(float(x0)) or float(x0) == 0.0:
                 problems.append(f"{f} = {x0!r}: the check needs a finite, nonzero scalar value")
+    try:
+        check_width(width)
+    except ValueError as e:
+        problems.append(str(e))
     if problems:
         raise ValueError("\n".join(problems))
     validate(params, setup)
@@ -109,15 +118,17 @@ def gradient_check(
             for r in results
         ]
     )
-    lengths = np.array([r.summary["arrest_position_smooth_m"] for r in results])
     layout = pst.make_layout(batch, setup)  # the windows' time step: stable for all
 
     def length(v: jax.Array) -> jax.Array:
         values = {f: v[j] for j, f in enumerate(fields)}
-        return pst.arrest_position_smooth(dataclasses.replace(params, **values), setup, layout)
+        p = dataclasses.replace(params, **values)
+        return pst.arrest_position_smooth(p, setup, layout, width=width)
 
-    grad = jax.grad(length)
-    ads = np.asarray(jax.jit(lambda v: jax.lax.map(grad, v, batch_size=batch_size))(pts), float)
+    # the lengths come with their gradients: the same surrogate, ``width`` included
+    grad = jax.value_and_grad(length)
+    lengths, ads = jax.jit(lambda v: jax.lax.map(grad, v, batch_size=batch_size))(pts)
+    lengths, ads = np.asarray(lengths, float), np.asarray(ads, float)
     checks = [
         compare_gradient(
             f,

@@ -46,11 +46,28 @@ def test_gradient_check_rejects_bad_input():
         ({"field": "tau_peak", "n_runs": 10}, "odd integer"),
         ({"field": "tau_peak", "rel_window": 0.0}, r"\(0, 0.5\]"),
         ({"field": "tau_peak", "tolerance": -1.0}, "tolerance"),
+        ({"field": "tau_peak", "width": 0.0}, r"width = 0.0: must be None or a number in \(0, 1\]"),
     ]:
         with pytest.raises(ValueError, match=needle):
             damjax.gradient_check(params, SETUP, **kw)
     with pytest.raises(ValueError, match="at least 3"):
         compare_gradient("tau_peak", [1.0, 2.0, 3.0], [0.1, 0.1, 0.1], [1.0, np.nan, np.nan])
+
+
+def test_gradient_check_with_a_damage_ramp_reports_that_surrogate():
+    """``width`` reaches the differentiated length: the reported lengths are
+    `arrest_position_smooth(..., width=0.5)` of each member, not the default surrogate."""
+    params = PSTParams(steady_length=5.0, strength_gradient=600.0)
+    c = damjax.gradient_check(params, SETUP, "tau_peak", n_runs=3, rel_window=0.05, width=0.5)
+    batch = damjax.PSTParams(
+        steady_length=5.0, strength_gradient=600.0, tau_peak=jnp.asarray(c.values)
+    )
+    layout = damjax.make_layout(batch, SETUP)
+    ramp = damjax.arrest_position_smooth(params, SETUP, layout, width=0.5)
+    plain = damjax.arrest_position_smooth(params, SETUP, layout)
+    assert c.lengths[1] == pytest.approx(float(ramp), rel=1e-6)
+    assert abs(float(ramp) - float(plain)) > 1e-4  # the two surrogates differ here
+    assert np.all(np.isfinite(c.ad_values)) and np.isfinite(c.event_slope)
 
 
 def test_verdict_compares_the_same_runs_when_some_did_not_arrest():
