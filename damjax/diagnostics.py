@@ -221,14 +221,21 @@ def summarize(
 ) -> dict[str, Any]:
     """The JSON summary of a PST run (None where not applicable). ``timed_steps``: the
     steps that ``wall_time_s`` covers (a resumed run: those after the restart; default
-    ``n_steps``)."""
+    ``n_steps``).
+
+    A crack arrests only after it ran by itself: while the saw still cuts (it stops once
+    the tip leads it, `damjax.core.model`), a tip standing still is a slow saw, not an
+    arrest. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
+    describe the run, so ``arrest_length_m`` (L_ca - L_ss) and the theory values
+    (``critical_cut_length_theory_m``, ``runaway_gradient_pa_per_m``) are None."""
     timed = n_steps if timed_steps is None else timed_steps
     p, s = result.params, result.setup
     cs = float(theory.shear_wave_speed(p))
     speed = crack_speed(result.time, result.tip)
     arrested, l_ca, t_stop = arrest(result.time, result.tip, s.length, s.dx)
-    if s.controlled:
+    if s.controlled or not saw_stopped:
         arrested, l_ca = False, math.nan
+    profiled = p.strength_profile is not None
     max_speed = float(np.max(speed)) if speed.size else 0.0
     kx = kx_th = None
     if s.controlled:
@@ -245,16 +252,16 @@ def summarize(
         "controlled": bool(s.controlled),
         "arrested": arrested,
         "arrest_position_m": _none(l_ca),
-        "arrest_length_m": _none(l_ca - lss) if arrested else None,
+        "arrest_length_m": _none(l_ca - lss) if arrested and not profiled else None,
         "arrest_time_s": _none(t_stop) if arrested else None,
         "final_tip_m": _none(float(result.tip[-1]) if result.tip.size else math.nan),
         "critical_cut_length_m": _none(saw_position) if saw_stopped else None,
         "critical_cut_length_theory_m": None
-        if s.controlled or not slides
+        if s.controlled or not slides or profiled
         else _none(float(theory.critical_cut_length(p, s.lateral))),
         # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
         "runaway_gradient_pa_per_m": None
-        if s.controlled or is_plastic(p) or not slides
+        if s.controlled or is_plastic(p) or not slides or profiled
         else float(theory.runaway_gradient(p, s.lateral)),
         "max_crack_speed_m_per_s": max_speed,
         "max_crack_speed_over_cs": max_speed / cs,

@@ -225,8 +225,9 @@ def result_dataset(
 
     Coordinates ``x`` (particle reference position) and ``time`` (after each step);
     series ``crack_tip``, ``crack_speed``; every other 1-D array attribute of the
-    result (final fields: sigma_xx, height, slip, u_max, tau_peak, ...) on ``x`` (or on
-    ``particle`` where it is per particle of a 2-D strip); the per-chunk snapshots as
+    result (final fields: sigma_xx, height, slip, u_max, tau_peak, ...) on ``x`` (a 2-D
+    strip's are width averages; an array of another length goes on ``particle``); the
+    per-chunk snapshots as
     ``snapshot_*`` on ``chunk``. ``attrs`` become global attributes.
     """
     import xarray as xr

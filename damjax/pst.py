@@ -78,8 +78,10 @@ class PSTResult:
     one batched result.
 
     From concrete parameters the fields are numpy arrays and ``summary`` holds every
-    diagnostic. Event-based diagnostics (crack tip, arrest, fractures) are computed on the
-    host from the tip history; they are discrete and not differentiable (see
+    diagnostic; in a 2D strip (``dim=2``) every (n,) field and snapshot is the average
+    across the width at each ``x``. Event-based diagnostics (crack tip, arrest,
+    fractures) are computed on the host from the tip history; they are discrete and not
+    differentiable (see
     `damjax.diagnostics`). From traced parameters (inside `jax.grad`, `jax.vmap`,
     `jax.jit`) the fields are JAX arrays per particle (a 2D strip is not width-averaged),
     ``snapshots`` and ``fractures`` are empty, and ``summary`` holds only JAX scalars:
@@ -279,12 +281,20 @@ def finish(
         fractures = _crack_fractures(params, setup, x_ref, final, times, tips)
     else:
         fractures = slab_fractures(model, final)
-    if layout.dim == 2:  # report the strip's average per x
+    slip, u_max = np.asarray(final.u[0]), np.asarray(final.u_max)
+    if layout.dim == 2:  # report the strip's average per x, the snapshots' too
         x_all = x_ref
-        x_ref, sigma_xx, height, opening, wl_shear = _width_average(
-            x_all, sigma_xx, height, opening, wl_shear
+        x_ref, sigma_xx, height, opening, wl_shear, slip, u_max, tau_p = _width_average(
+            x_all, sigma_xx, height, opening, wl_shear, slip, u_max, tau_p
         )
-        tau_p = _width_average(x_all, tau_p)[1]
+        snapshots = {
+            k: (
+                np.stack([_width_average(x_all, row)[1] for row in v])
+                if v.ndim == 2 and v.shape[-1] == x_all.size
+                else v
+            )
+            for k, v in snapshots.items()
+        }
     result = PSTResult(
         params=params,
         setup=setup,
@@ -293,8 +303,8 @@ def finish(
         tip=tips,
         sigma_xx=sigma_xx,
         height=height,
-        slip=np.asarray(final.u[0]),
-        u_max=np.asarray(final.u_max),
+        slip=slip,
+        u_max=u_max,
         tau_peak=tau_p,
         opening=opening,
         wl_shear=wl_shear,

@@ -216,6 +216,30 @@ def test_1d_and_2d_paths_agree(lateral, arresting_params):
     assert r2.arrest_position == pytest.approx(r1.arrest_position, rel=0.03)
     v1, v2 = r1.summary["max_crack_speed_over_cs"], r2.summary["max_crack_speed_over_cs"]
     assert v2 == pytest.approx(v1, rel=0.03)
+    # the 2D strip's fields are width averages on its x, snapshots included
+    for f in (r2.sigma_xx, r2.height, r2.slip, r2.u_max, r2.tau_peak, r2.opening):
+        assert f.shape == r2.x.shape
+    assert r2.snapshots["slip"].shape[1:] == r2.x.shape
+    assert np.mean(r2.u_max) == pytest.approx(np.mean(r1.u_max), rel=0.05)
+
+
+def test_no_arrest_without_a_self_propagating_crack():
+    """A saw too slow to start a crack in the run leaves the tip still: not an arrest."""
+    r = simulate_pst(
+        PSTParams(saw_speed=1e-4, steady_length=2.0), PSTSetup(length=4.0, dx=0.1, duration=0.4)
+    )
+    assert not r.summary["arrested"] and r.summary["arrest_position_m"] is None
+    assert r.summary["critical_cut_length_m"] is None
+
+
+def test_a_strength_profile_has_no_steady_length_in_the_summary():
+    """A measured profile replaces tau_p, L_ss and theta: no L_ca - L_ss, no closed forms."""
+    xs = np.linspace(0.0, 12.0, 241)
+    prof = 1000.0 + 3000.0 * np.maximum(xs - 5.0, 0.0)
+    r = simulate_pst(PSTParams(strength_profile=prof), PSTSetup(length=12.0, dx=0.1, duration=0.8))
+    assert r.summary["arrested"] and 5.0 < r.summary["arrest_position_m"] < 10.0
+    for key in ("arrest_length_m", "critical_cut_length_theory_m", "runaway_gradient_pa_per_m"):
+        assert r.summary[key] is None, key
 
 
 def test_crack_speed_of_a_record_shorter_than_its_window():
