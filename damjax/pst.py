@@ -81,8 +81,7 @@ class PSTResult:
     diagnostic; in a 2D strip (``dim=2``) every (n,) field and snapshot is the average
     across the width at each ``x``. Event-based diagnostics (crack tip, arrest,
     fractures) are computed on the host from the tip history; they are discrete and not
-    differentiable (see
-    `damjax.diagnostics`). From traced parameters (inside `jax.grad`, `jax.vmap`,
+    differentiable (see `damjax.diagnostics`). From traced parameters (inside `jax.grad`, `jax.vmap`,
     `jax.jit`) the fields are JAX arrays per particle (a 2D strip is not width-averaged),
     ``snapshots`` and ``fractures`` are empty, and ``summary`` holds only JAX scalars:
     ``arrest_position_smooth_m`` (differentiable), ``saw_position_m``, ``tip_m`` (the
