@@ -227,7 +227,11 @@ def summarize(
     the tip leads it, `damjax.core.model`), a tip standing still is a slow saw, not an
     arrest. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
     describe the run, so ``arrest_length_m`` (L_ca - L_ss) and the theory values
-    (``critical_cut_length_theory_m``, ``runaway_gradient_pa_per_m``) are None."""
+    (``critical_cut_length_theory_m``, ``runaway_gradient_pa_per_m``) are None; so are
+    the theory values with a softening weak layer (they are the brittle closed forms). A
+    controlled run's ``tension_gradient_pa_per_m`` is the elastic ramp k_x: None where the
+    slab yielded in tension (``opening`` > 0) over the fitted window. ``slab_yielded``:
+    whether any of the slab did."""
     timed = n_steps if timed_steps is None else timed_steps
     p, s = result.params, result.setup
     cs = float(theory.shear_wave_speed(p))
@@ -236,11 +240,17 @@ def summarize(
     if s.controlled or not saw_stopped:
         arrested, l_ca = False, math.nan
     profiled = p.strength_profile is not None
+    # the closed forms a_c and theta_run are those of a brittle weak layer (delta = 0)
+    brittle = float(np.max(np.asarray(p.softening))) == 0.0
     max_speed = float(np.max(speed)) if speed.size else 0.0
     kx = kx_th = None
     if s.controlled:
         # once the cut has left the domain the whole slab hangs free: no tension ramp
-        if saw_position < s.length:
+        # the elastic ramp k_x only where the slab did not yield over the fitted window
+        x = np.asarray(result.x)
+        window = (x >= 0.3 * saw_position) & (x <= 0.8 * saw_position)
+        ramp_yielded = bool(np.any(np.asarray(result.opening)[window] > 0))
+        if saw_position < s.length and not ramp_yielded:
             kx = _none(tension_gradient(result.x, result.sigma_xx, saw_position))
         kx_th = float(theory.dynamic_gradient(p, float(p.saw_speed), s.lateral))
     lss = float(p.steady_length)
@@ -257,11 +267,11 @@ def summarize(
         "final_tip_m": _none(float(result.tip[-1]) if result.tip.size else math.nan),
         "critical_cut_length_m": _none(saw_position) if saw_stopped else None,
         "critical_cut_length_theory_m": None
-        if s.controlled or not slides or profiled
+        if s.controlled or not slides or profiled or not brittle
         else _none(float(theory.critical_cut_length(p, s.lateral))),
         # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
         "runaway_gradient_pa_per_m": None
-        if s.controlled or is_plastic(p) or not slides or profiled
+        if s.controlled or is_plastic(p) or not slides or profiled or not brittle
         else float(theory.runaway_gradient(p, s.lateral)),
         "max_crack_speed_m_per_s": max_speed,
         "max_crack_speed_over_cs": max_speed / cs,
@@ -270,6 +280,7 @@ def summarize(
         "slab_fractures": result.fractures,
         "tension_gradient_pa_per_m": kx,
         "tension_gradient_theory_pa_per_m": kx_th,
+        "slab_yielded": bool(np.any(np.asarray(result.opening) > 0)),
         "fault": result.fault,
         "n_particles": int(n_particles),
         "n_steps": int(n_steps),

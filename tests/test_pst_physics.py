@@ -28,6 +28,19 @@ def test_controlled_sawing_tension_gradient_matches_appendix_a(lateral):
     kx, kth = r.summary["tension_gradient_pa_per_m"], r.summary["tension_gradient_theory_pa_per_m"]
     assert kth == pytest.approx(float(theory.dynamic_gradient(p, adot, lateral)))
     assert abs(kx / kth - 1) <= 0.03, (kx, kth)
+    assert r.summary["slab_yielded"] is False
+
+
+def test_controlled_sawing_reports_no_elastic_ramp_once_the_slab_yields():
+    """sigma_t = 4 kPa: the paper's slab yields at 0.534 sigma_t (2.1 kPa), inside the
+    fitted window of a 10 m cut (k_x ~ 380 Pa/m): no elastic k_x is reported for it."""
+    p = PSTParams(tensile_strength=4000.0)
+    adot = 0.2 * float(theory.shear_wave_speed(p))
+    s = PSTSetup(length=12.0, dx=0.1, duration=10.0 / adot, controlled=True, chunk_steps=200)
+    r = simulate_pst(PSTParams(saw_speed=adot, tensile_strength=4000.0), s)
+    assert r.summary["slab_yielded"] is True
+    assert r.summary["tension_gradient_pa_per_m"] is None
+    assert r.summary["tension_gradient_theory_pa_per_m"] > 0
 
 
 @pytest.mark.parametrize("factor, arrests", [(0.9, False), (1.1, True)])
