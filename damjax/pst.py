@@ -35,7 +35,7 @@ from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: pub
     make_layout,
     time_step,
 )
-from damjax.core.state import FAULT_MESSAGES, Model, State
+from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
 from damjax.core.step import (
     band_opening,
     broken_mask,
@@ -81,9 +81,10 @@ class PSTResult:
     diagnostic; in a 2D strip (``dim=2``) every (n,) field and snapshot is the average
     across the width at each ``x``. Event-based diagnostics (crack tip, arrest,
     fractures) are computed on the host from the tip history; they are discrete and not
-    differentiable (see `damjax.diagnostics`). From traced parameters (inside `jax.grad`, `jax.vmap`,
-    `jax.jit`) the fields are JAX arrays per particle (a 2D strip is not width-averaged),
-    ``snapshots`` and ``fractures`` are empty, and ``summary`` holds only JAX scalars:
+    differentiable (see `damjax.diagnostics`). From traced parameters (inside
+    `jax.grad`, `jax.vmap`, `jax.jit`) the fields are JAX arrays per particle (a 2D strip
+    is not width-averaged), ``snapshots`` and ``fractures`` are empty, and ``summary``
+    holds only JAX scalars:
     ``arrest_position_smooth_m`` (differentiable), ``saw_position_m``, ``tip_m`` (the
     crack tip at the end) and ``fault_code`` (0: no runtime fault; bits of
     `damjax.core.state.FAULT_MESSAGES`).
@@ -472,7 +473,7 @@ def _simulate_traced(params: PSTParams, setup: PSTSetup, layout: Layout | None) 
         check_layout(params, setup, layout)
     model, final, tips = run_pure(params, setup, layout)
     summary = {
-        "arrest_position_smooth_m": diagnostics_smooth(model, final),
+        "arrest_position_smooth_m": raise_on_fault(diagnostics_smooth(model, final), final.fault),
         "saw_position_m": final.saw_pos,
         "tip_m": final.tip,
         "fault_code": final.fault,
@@ -567,7 +568,7 @@ def arrest_position_smooth(
         validate(params, setup, batch=_traced(params))
         check_layout(params, setup, layout)
     model, final, _ = run_pure(params, setup, layout)
-    return diagnostics_smooth(model, final, width)
+    return raise_on_fault(diagnostics_smooth(model, final, width), final.fault)
 
 
 def diagnostics_smooth(model: Model, final: State, width: float | None = None) -> Any:

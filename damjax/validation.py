@@ -34,22 +34,23 @@ from damjax.core.transfer import ACCUMULATIONS
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup, SlopeSetup
 
 
-# field name -> (CLI flag, check, description of the valid range)
-def _pos(v: float) -> bool:
-    return v > 0 and math.isfinite(v)
+# field name -> (check, description of the valid range); the checks are written with `&`
+# and comparisons only, so they take floats (here) and JAX arrays (`traced_param_checks`)
+def _pos(v: Any) -> Any:
+    return (v > 0) & (v < math.inf)
 
 
-def _nonneg(v: float) -> bool:
-    return v >= 0 and math.isfinite(v)
+def _nonneg(v: Any) -> Any:
+    return (v >= 0) & (v < math.inf)
 
 
 PARAM_RULES: dict[str, tuple[Any, str]] = {
-    "slope_deg": (lambda v: 0 < v < 90, "(0, 90) deg"),
+    "slope_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg"),
     "thickness": (_pos, "(0, inf) m"),
     "density": (_pos, "(0, inf) kg/m^3"),
     "youngs_modulus": (_pos, "(0, inf) Pa"),
-    "poisson": (lambda v: 0 < v < 0.5, "(0, 0.5)"),
-    "friction_deg": (lambda v: 0 < v < 90, "(0, 90) deg"),
+    "poisson": (lambda v: (v > 0) & (v < 0.5), "(0, 0.5)"),
+    "friction_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg"),
     "wl_shear_modulus": (_pos, "(0, inf) Pa"),
     "wl_thickness": (_pos, "(0, inf) m"),
     "tau_peak": (lambda v: v > 0, "(0, inf] Pa"),
@@ -62,8 +63,13 @@ PARAM_RULES: dict[str, tuple[Any, str]] = {
     "mcc_beta": (_pos, "(0, inf)"),
     "mcc_xi": (_nonneg, "[0, inf)"),
     "slab_fracture_energy": (lambda v: v > 0, "(0, inf] J/m^2"),
-    "slab_strength_cov": (lambda v: 0 <= v <= 1, "[0, 1]"),
-    "slab_strength_length": (lambda v: 0.2 <= v <= 10.0, "[0.2, 10] m"),
+    "slab_strength_cov": (lambda v: (v >= 0) & (v <= 1), "[0, 1]"),
+    "slab_strength_length": (lambda v: (v >= 0.2) & (v <= 10.0), "[0.2, 10] m"),
+}
+# every value of a profile (a measured field along the PST)
+PROFILE_RULES: dict[str, tuple[Any, str]] = {
+    "strength_profile": (lambda v: v > 0, "(0, inf] Pa (every value)"),
+    "slope_profile": (lambda v: (v > 0) & (v < 90), "(0, 90) deg (every value)"),
 }
 # parameters whose None means "the model's default" (see `PSTParams`)
 OPTIONAL_PARAMS = ("slab_fracture_energy",)
@@ -155,9 +161,10 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
                 f"{label('strength_profile')} has shape {shape}: "
                 "must be an array of >= 2 values [Pa]"
             )
-        elif any(math.isnan(v) or not v > 0 for v in prof):
-            bad = next(v for v in prof if math.isnan(v) or not v > 0)
-            problems.append(_problem("strength_profile", bad, "(0, inf] Pa (every value)"))
+        elif any(math.isnan(v) or not PROFILE_RULES["strength_profile"][0](v) for v in prof):
+            ok, valid = PROFILE_RULES["strength_profile"]
+            bad = next(v for v in prof if math.isnan(v) or not ok(v))
+            problems.append(_problem("strength_profile", bad, valid))
     if params.slope_profile is not None:
         prof = _leaf_values(params.slope_profile)
         shape = np.shape(params.slope_profile)
@@ -165,9 +172,10 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
             problems.append(
                 f"{label('slope_profile')} has shape {shape}: must be an array of >= 2 values [deg]"
             )
-        elif any(math.isnan(v) or not 0 < v < 90 for v in prof):
-            bad = next(v for v in prof if math.isnan(v) or not 0 < v < 90)
-            problems.append(_problem("slope_profile", bad, "(0, 90) deg (every value)"))
+        elif any(math.isnan(v) or not PROFILE_RULES["slope_profile"][0](v) for v in prof):
+            ok, valid = PROFILE_RULES["slope_profile"]
+            bad = next(v for v in prof if math.isnan(v) or not ok(v))
+            problems.append(_problem("slope_profile", bad, valid))
     for name, (ok, valid) in PARAM_RULES.items():
         if name in OPTIONAL_PARAMS and getattr(params, name) is None:
             continue
@@ -246,6 +254,61 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
                 f"[0, length = {setup.length!r}) m"
             )
     return problems
+
+
+def traced_param_checks(params: PSTParams) -> list[tuple[Any, str]]:
+    """(bad, message) per parameter that holds a JAX tracer: ``bad`` a JAX bool, true
+    when any of its values is outside `PARAM_RULES` / `PROFILE_RULES` (NaN included).
+    Inside `jax.jit` no value is known when the run is traced, so these become runtime
+    errors (`equinox.error_if`, `damjax.core.model`) instead of a silent NaN or a
+    plausible number; concrete values are checked before tracing (`param_problems`)."""
+    import jax
+    import jax.numpy as jnp
+
+    out = []
+    for name, (ok, valid) in {**PARAM_RULES, **PROFILE_RULES}.items():
+        value = getattr(params, name)
+        if value is None or not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(value)):
+            continue
+        bad = ~jnp.all(ok(jnp.asarray(value)))
+        out.append(
+            (
+                bad,
+                f"{label(name)}: a value outside {valid}, found at run time (under "
+                "jax.jit the values are not known when the run is traced)",
+            )
+        )
+    return out
+
+
+# the maps of a slope run (`damjax.simulate_slope`'s ``tau_peak``, ``slope_deg``,
+# ``fall_deg``): every cell
+MAP_RULES: dict[str, tuple[Any, str]] = {
+    "tau_peak": (lambda v: v > 0, "(0, inf] Pa (every cell)"),
+    "slope_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg (every cell)"),
+    "fall_deg": (lambda v: (v > -math.inf) & (v < math.inf), "finite deg (every cell)"),
+}
+
+
+def traced_map_checks(**maps: Any) -> list[tuple[Any, str]]:
+    """`traced_param_checks` for the maps of a slope run given by name (`MAP_RULES`)."""
+    import jax
+    import jax.numpy as jnp
+
+    out = []
+    for name, value in maps.items():
+        if not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(value)):
+            continue
+        ok, valid = MAP_RULES[name]
+        bad = ~jnp.all(ok(jnp.asarray(value)))
+        out.append(
+            (
+                bad,
+                f"{name}: a value outside {valid}, found at run time (under jax.jit "
+                "the values are not known when the run is traced)",
+            )
+        )
+    return out
 
 
 MAX_ELASTIC_SLIP = 0.1  # [m]

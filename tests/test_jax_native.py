@@ -158,3 +158,46 @@ def test_slope_grad_vmap_jit_match_the_layout_api_and_concrete_runs():
         assert float(jax.jit(area)(1250.0)) == float(jitted)
         with pytest.raises(TypeError, match="slope_deg are unknown.*make_slope_layout"):
             jax.jit(lambda s: damjax.simulate_slope(params, setup, slope_deg=s))(35.0)
+
+
+def test_out_of_range_values_under_jit_stop_the_run_with_the_field_named():
+    """Inside jax.jit no value is known when the run is traced: a NaN or negative strength
+    gradient, a NaN cell of a slope's strength map, stop the computation at run time with
+    the field and its range instead of returning a plausible number (or NaN)."""
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2, chunk_steps=100)
+    f = jax.jit(lambda th: damjax.simulate_pst(_with_theta(th), setup).arrest_position_smooth)
+    assert np.isfinite(float(f(3000.0)))
+    for bad in (float("nan"), -100.0):
+        with pytest.raises(
+            Exception,
+            match=r"strength_gradient \(--strength-gradient\): a value outside \[0, inf\) Pa/m",
+        ):  # noqa: E501
+            jax.block_until_ready(f(bad))
+    layout = damjax.make_layout(PARAMS, setup)
+    g = jax.jit(
+        lambda nu: damjax.arrest_position_smooth(
+            eqx.tree_at(lambda p: p.poisson, PARAMS, nu), setup, layout
+        )
+    )
+    with pytest.raises(Exception, match=r"poisson \(--poisson\): a value outside \(0, 0.5\)"):
+        jax.block_until_ready(g(float("nan")))
+
+    params, sset = _slope_case(jnp.float32)
+    n = make_slope_layout(params, sset, 35.0).n_cells
+    tau = np.full(n, 1250.0, np.float32)
+    area = jax.jit(
+        lambda t: damjax.simulate_slope(params, sset, tau_peak=t).summary["release_area_smooth_m2"]
+    )
+    assert np.isfinite(float(area(tau)))
+    tau[1, 1] = np.nan
+    with pytest.raises(Exception, match=r"tau_peak: a value outside \(0, inf\] Pa \(every cell\)"):
+        jax.block_until_ready(area(tau))
+
+
+def test_a_runtime_fault_stops_a_traced_smooth_summary():
+    from damjax.core.state import FAULT_EDGE, raise_on_fault
+
+    f = jax.jit(raise_on_fault)
+    assert float(f(jnp.float32(2.5), jnp.int32(0))) == 2.5
+    with pytest.raises(Exception, match="a particle reached the edge of the grid"):
+        jax.block_until_ready(f(jnp.float32(2.5), jnp.int32(FAULT_EDGE)))

@@ -28,7 +28,13 @@ from damjax.core import transfer
 from damjax.core.state import Model, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
-from damjax.validation import check_problem_size, is_plastic, validate
+from damjax.validation import (
+    check_problem_size,
+    is_plastic,
+    traced_map_checks,
+    traced_param_checks,
+    validate,
+)
 
 SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
 
@@ -130,7 +136,11 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
     """dt, with runtime errors (`eqx.error_if`, on dt: always used, so never pruned) for
     traced parameters that the layout does not fit: a finite tensile strength on an
     elastic layout, or a slab so stiff that dt breaks the Courant limit (the run would
-    blow up into NaN). Concrete parameters are checked before tracing (`check_layout`)."""
+    blow up into NaN), and traced values outside their valid ranges
+    (`damjax.validation.traced_param_checks`: NaN, a negative strength gradient, ...).
+    Concrete parameters are checked before tracing (`check_layout`, `validate`)."""
+    for bad, message in traced_param_checks(params):
+        dt = eqx.error_if(dt, bad, message)
     if elastic_guard is not None:
         dt = eqx.error_if(
             dt,
@@ -470,6 +480,12 @@ def build_slope(
     psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
     fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
     tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
+    # traced values outside their ranges stop the run (on dt: always used, never pruned)
+    dt = f(setup.duration / layout.n_steps)
+    checks = traced_param_checks(params)
+    checks += traced_map_checks(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
+    for bad, message in checks:
+        dt = eqx.error_if(dt, bad, message)
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)
@@ -485,7 +501,7 @@ def build_slope(
         cell0=jnp.asarray(cell0, jnp.int32),
         frac0=jnp.asarray(frac0, dtype),
         saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
-        dt=f(setup.duration / layout.n_steps),
+        dt=dt,
         density=f(params.density),
         thickness=f(params.thickness),
         area0=f((dx / ppc) ** 2),

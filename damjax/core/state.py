@@ -33,6 +33,24 @@ FAULT_MESSAGES = {
 }
 
 
+def raise_on_fault(value: Any, fault: Any) -> Any:
+    """``value``, with a runtime error (`equinox.error_if`) for each fault bit set in
+    ``fault`` (`FAULT_MESSAGES`): a differentiable summary of a traced run (a smooth
+    arrest position or release area) is meaningless after a fault, and under `jax.grad`
+    or `jax.jit` nobody reads the fault code beside it. Concrete runs stop at the fault
+    and report it instead (`PSTResult.fault`)."""
+    import equinox as eqx
+
+    for bit, message in FAULT_MESSAGES.items():
+        value = eqx.error_if(
+            value,
+            (fault & bit) != 0,
+            f"the run hit a runtime fault: {message}; its smooth summary would be "
+            "meaningless (a shorter duration, a larger domain, or a smaller time step)",
+        )
+    return value
+
+
 def zero_components(n: int, dtype: Any) -> tuple[Any, Any, Any]:
     """Three zero rows (n,): an unstrained (xx, yy, xy) strain or stress."""
     return tuple(jnp.zeros((n,), dtype) for _ in range(3))

@@ -36,7 +36,7 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     build_slope,
     make_slope_layout,
 )
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State
+from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State, raise_on_fault
 from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
 from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
 from damjax.params import PSTParams, SlopeSetup
@@ -532,7 +532,7 @@ def _simulate_slope_traced(
 
     g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
     summary = {
-        "release_area_smooth_m2": release_area_smooth(model, final),
+        "release_area_smooth_m2": raise_on_fault(release_area_smooth(model, final), final.fault),
         "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.area0,
         "saw_radius_m": final.saw_pos,
         "fault_code": final.fault,
