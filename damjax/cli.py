@@ -307,15 +307,20 @@ def cmd_pst(ns: argparse.Namespace) -> int:
     for w in caught:
         if issubclass(w.category, UserWarning):
             sys.stderr.write(f"damjax: warning: {w.message}\n")
-    if ns.plot:
-        from damjax.plot import plot_pst
-
-        io.save_figure(plot_pst(result), ns.plot)
+    # the summary first: a figure that cannot be written after all (a full disk) does
+    # not take the run's result with it
     if ns.json:
         print(json.dumps(result.summary))
     else:
         _print_summary(result.summary)
-        if ns.plot:
+    if ns.plot:
+        from damjax.plot import plot_pst
+
+        try:
+            io.save_figure(plot_pst(result), ns.plot)
+        except OSError as e:
+            raise ValueError(f"--plot {ns.plot}: not written ({e.strerror or e})") from None
+        if not ns.json:
             print(f"{'plot':34s} {ns.plot}")
     if result.fault:
         sys.stderr.write(f"damjax: {result.fault}\n")
@@ -436,8 +441,6 @@ def cmd_run(ns: argparse.Namespace) -> int:
                 )
             ) from None
         out = Path(ns.out) if ns.out else runner.default_out_dir(scn)
-        if out.exists() and not out.is_dir():
-            raise ValueError(f"--out {out}: exists and is not a folder")
         _enable_compilation_cache()
         t1 = time.perf_counter()
         try:

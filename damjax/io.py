@@ -113,8 +113,18 @@ def write_npz(path: str | os.PathLike[str], arrays: dict[str, Any]) -> None:
 
 
 def read_npz(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as data:
-        return {k: data[k] for k in data.files}
+    """The arrays of an .npz archive; ValueError naming the file if it is not one or is
+    damaged (truncated by a full disk or a copy)."""
+    import zipfile
+
+    with open(path, "rb") as fh:
+        if fh.read(2) != b"PK":
+            raise ValueError(f"{path}: not an .npz archive")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (zipfile.BadZipFile, EOFError, OSError, ValueError) as exc:
+        raise ValueError(f"{path}: damaged .npz archive ({exc})") from None
 
 
 def check_figure_path(path: str | os.PathLike[str], field: str = "--plot") -> Path:
@@ -131,11 +141,20 @@ def check_figure_path(path: str | os.PathLike[str], field: str = "--plot") -> Pa
             + ", ".join(sorted(formats))
             + ")"
         )
+    if path.is_dir():
+        raise ValueError(f"{field} {path}: is a folder; give a file, e.g. {path / 'pst.png'}")
     parent = path.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise ValueError(f"{field} {path}: cannot write into {parent}")
+    if not parent.is_dir():
+        raise ValueError(f"{field} {path}: cannot write into {parent} (not a folder)")
+    try:  # a real write: permissions alone say nothing for root or on /proc
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as e:
+        raise ValueError(
+            f"{field} {path}: cannot write into {parent} ({e.strerror or e})"
+        ) from None
     return path
 
 
@@ -288,8 +307,13 @@ def open_dataset(path: str | os.PathLike[str]) -> Any:
 
     with open(path, "rb") as fh:
         engine = "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
-    with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
-        return ds.load()
+    try:
+        with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
+            return ds.load()
+    except (OSError, ValueError, TypeError, KeyError, RuntimeError) as exc:
+        # an empty, truncated or foreign file: xarray's engines fail in their own words
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise ValueError(f"{path}: not a readable NetCDF file ({first})") from None
 
 
 def dataset_fields(ds: Any) -> dict[str, Any]:

@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
+import tempfile
 import time as _time
 import warnings
 from collections.abc import Callable
@@ -191,12 +193,20 @@ def run(
             exception raised there aborts the run.
 
     Returns the `RunOutcome`; a runtime fault is reported in ``outcome.fault`` and the
-    outputs hold the run up to it. Invalid scenarios raise ValueError before compiling.
+    outputs hold the run up to it. Invalid scenarios raise ValueError before compiling,
+    and so does a folder holding an unfinished run's ``checkpoint.npz`` (`resume`
+    continues it; delete the file to start afresh).
     """
+    _check_every(checkpoint_every)
     if not isinstance(scn, Scenario):
         scn = scenario.load(scn)
     out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
-    out.mkdir(parents=True, exist_ok=True)
+    _make_out(out)
+    if (out / CHECKPOINT).exists():
+        raise ValueError(
+            f"{out}: holds an unfinished run's {CHECKPOINT}; `damjax resume {out}` "
+            f"continues it (delete {out / CHECKPOINT} to start this run afresh there)"
+        )
     io.remove_stale_temporaries(out)
     for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
         (out / name).unlink(missing_ok=True)
@@ -215,6 +225,32 @@ def run(
     return _finish(scn, out, result, rec, None, phases)
 
 
+def _check_every(every: Any, allow_keep: bool = False) -> None:
+    """ValueError unless ``every`` is None or seconds in [0, inf) (-1 too where
+    ``allow_keep``: `resume` keeps the interrupted run's interval)."""
+    if every is None or (allow_keep and every == -1):
+        return
+    ok = isinstance(every, (int, float, np.integer, np.floating)) and not isinstance(every, bool)
+    if not ok or not (math.isfinite(float(every)) and every >= 0):
+        keep = ", or -1 to keep the interrupted run's" if allow_keep else ""
+        raise ValueError(
+            f"checkpoint_every = {every!r}: must be None (no checkpoints) or seconds in "
+            f"[0, inf){keep}"
+        )
+
+
+def _make_out(out: Path) -> None:
+    """The output folder, made if missing; ValueError naming it if it cannot be."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out}: exists and is not a folder (--out, out_dir)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as e:
+        raise ValueError(f"{out}: cannot write there ({e.strerror or e}; --out, out_dir)") from None
+
+
 def resume(
     out_dir: str | os.PathLike[str],
     *,
@@ -227,15 +263,20 @@ def resume(
     ``checkpoint_every`` defaults to the interval of the interrupted run (-1: keep it).
     ValueError if there is no usable checkpoint.
     """
+    _check_every(checkpoint_every, allow_keep=True)
     out = Path(out_dir)
     path = out / CHECKPOINT
+    if not out.is_dir():
+        raise ValueError(f"{out}: no such folder (the --out of the run to resume)")
     if not path.is_file():
-        raise ValueError(
-            f"{out}: no {CHECKPOINT} to resume from (the run finished or never checkpointed)"
-        )
+        finished = (out / SUMMARY).is_file()
+        why = "the run there finished" if finished else "the run there never checkpointed"
+        raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
     try:
         ck = io.read_npz(path)
-    except (OSError, ValueError, EOFError) as exc:
+    except ValueError as exc:  # names the file
+        raise ValueError(f"unreadable checkpoint: {exc}") from None
+    except OSError as exc:
         raise ValueError(f"{path}: unreadable checkpoint ({exc})") from None
     if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
@@ -429,16 +470,34 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
 
     path = Path(out_dir) / RESULTS
     if not path.is_file():
+        if (Path(out_dir) / CHECKPOINT).is_file():
+            raise ValueError(
+                f"{out_dir}: an unfinished run (no {RESULTS} yet); `damjax resume {out_dir}` "
+                "continues it"
+            )
         raise ValueError(f"{out_dir}: no {RESULTS} (not a damjax output folder?)")
     try:
         ds = io.open_dataset(path)
-    except (OSError, ValueError) as exc:
+    except ValueError as exc:  # names the file
+        raise ValueError(f"unreadable results: {exc}") from None
+    except OSError as exc:
         raise ValueError(f"{path}: unreadable results ({exc})") from None
     if "scenario" not in ds.attrs or "summary" not in ds.attrs:
         raise ValueError(f"{path}: not written by damjax (no scenario/summary attributes)")
-    scn = scenario.loads(ds.attrs["scenario"], warn=False)
-    summary = json.loads(ds.attrs["summary"])
-    fields = io.dataset_fields(ds)
+    try:
+        scn = scenario.loads(ds.attrs["scenario"], warn=False)
+    except ValueError as exc:
+        raise ValueError(
+            f"{path}: its 'scenario' attribute is not a valid scenario ({exc})"
+        ) from None
+    try:
+        summary = json.loads(ds.attrs["summary"])
+    except ValueError as exc:
+        raise ValueError(f"{path}: its 'summary' attribute is not JSON ({exc})") from None
+    try:
+        fields = io.dataset_fields(ds)
+    except KeyError as exc:
+        raise ValueError(f"{path}: not a damjax PST results file (no variable {exc})") from None
     kwargs: dict[str, Any] = {}
     for f in dataclasses.fields(PSTResult):
         if f.name in fields:

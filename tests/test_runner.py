@@ -136,6 +136,11 @@ def test_run_by_shipped_name_and_bad_arguments(tmp_path, capsys):
     assert main(["run", "quick", "--checkpoint-every", "-1"]) == 2
     err = capsys.readouterr().err
     assert "--checkpoint-every" in err and len(err.strip().splitlines()) == 1
+    for every in (-1.0, "x", float("nan")):  # the API checks what the CLI's flag does
+        with pytest.raises(ValueError, match="checkpoint_every = .*: must be None"):
+            runner.run("quick", tmp_path / "q", checkpoint_every=every)
+    with pytest.raises(ValueError, match="no such folder"):
+        runner.resume(tmp_path / "never-ran")
     ens = tmp_path / "ens.toml"  # an ensemble scenario: one line naming the command to use
     ens.write_text('type = "slope"\nname = "e"\n[ensemble]\nmembers = 3\n')
     assert main(["run", str(ens), "--out", str(tmp_path / "e")]) == 2
@@ -170,6 +175,12 @@ def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
     assert int(ck["chunk"]) == 41 and ck["tips"].shape == (41, 100)
     assert str(ck["scenario"]) == scn.to_toml()
     assert not (out / runner.RESULTS).exists()
+    # a new run into that folder would delete the checkpoint: refused, resume named
+    with pytest.raises(
+        ValueError, match="holds an unfinished run's checkpoint.npz; `damjax resume"
+    ):
+        runner.run(scn, out)
+    assert (out / runner.CHECKPOINT).exists()
 
     # resume, interrupt again (every chunk checkpointed now), resume to the end
     with pytest.raises(KeyboardInterrupt):
@@ -300,3 +311,36 @@ def test_run_cli_fault_exits_nonzero(tmp_path, scn_file, monkeypatch, capsys):
     assert "damjax: run stopped at t = " in err and "Traceback" not in err
     assert (out / runner.RESULTS).is_file() and (out / runner.SUMMARY).is_file()
     assert json.loads((out / runner.SUMMARY).read_text())["fault"].startswith("run stopped")
+
+
+def test_damaged_or_unfinished_folders_give_one_line_errors(tmp_path, capsys):
+    """A truncated or foreign checkpoint, an empty or foreign results.nc and a folder of
+    an unfinished run: one line naming the file (status 2), no traceback."""
+    import numpy as np
+
+    d = tmp_path / "d"
+    d.mkdir()
+    np.savez(tmp_path / "full.npz", a=np.zeros(100_000))
+    cases = [
+        ("checkpoint.npz", b"hello", ["resume"], "checkpoint.npz: not an .npz archive"),
+        (
+            "checkpoint.npz",
+            (tmp_path / "full.npz").read_bytes()[:1000],
+            ["resume"],
+            "checkpoint.npz: damaged .npz archive",
+        ),
+        ("results.nc", b"", ["show"], "results.nc: not a readable NetCDF file"),
+        ("results.nc", b"text\n", ["show"], "results.nc: not a readable NetCDF file"),
+    ]
+    for name, data, cmd, needle in cases:
+        for f in d.iterdir():
+            f.unlink()
+        (d / name).write_bytes(data)
+        assert main([*cmd, str(d)]) == 2, (name, data[:10])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and needle in err[0], err
+    for f in d.iterdir():
+        f.unlink()
+    (d / "checkpoint.npz").write_bytes(b"PK")  # an unfinished run's folder
+    assert main(["show", str(d)]) == 2
+    assert "an unfinished run" in capsys.readouterr().err

@@ -264,17 +264,19 @@ def test_cli_checks_outputs_and_sizes_before_running(tmp_path, capsys):
     small = ["pst", "--length", "6", "--steady-length", "3", "--duration", "0.02", "--quiet"]
     cases = [
         (["--plot", str(tmp_path / "fig.xyz")], "unsupported figure format 'xyz'"),
+        (["--plot", str(tmp_path)], "is a folder; give a file"),
+        (["--plot", str(tmp_path / "afile" / "fig.png")], "(not a folder)"),
         (["--chunk-steps", "1e30"], "chunk_steps (--chunk-steps) = 1e+30: must be an integer"),
         (["--wl-shear-modulus", "1"], "elastic slip under the slab"),
         (["--strength-fit", "linear"], "needs --strength-profile"),
         (["--length", "0.1", "--dx", "0.05"], "must be at least 4 cells"),
     ]
+    (tmp_path / "afile").write_text("")
     for extra, needle in cases:
         assert main(small + extra) == 2, extra
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and needle in err[0], (extra, err)
     afile = tmp_path / "afile"
-    afile.write_text("")
     assert main(["run", "quick", "--out", str(afile), "--quiet"]) == 2
     assert "exists and is not a folder" in capsys.readouterr().err
     # a figure in a folder that does not exist yet: made, as `damjax show` does
