@@ -45,7 +45,7 @@ from damjax.core.step import (
 )
 from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup
-from damjax.validation import check_width, ensure_x64, require_x64, validate
+from damjax.validation import check_width, ensure_x64, expect_types, require_x64, validate
 
 FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
 
@@ -223,6 +223,12 @@ def simulate_pst(
     """
     params = PSTParams() if params is None else params
     setup = PSTSetup() if setup is None else setup
+    expect_types(
+        "simulate_pst",
+        params=(params, PSTParams),
+        setup=(setup, PSTSetup),
+        layout=(layout, (Layout, type(None))),
+    )
     if is_traced(params):
         if progress or state is not None or start_chunk or history or callback is not None:
             raise TypeError(
@@ -545,6 +551,12 @@ def arrest_position_smooth(
     the failed fraction (0.5 where slab fractures stop the crack; see
     `damjax.diagnostics.smooth_arrest_position`).
     """
+    expect_types(
+        "arrest_position_smooth",
+        params=(params, PSTParams),
+        setup=(setup, PSTSetup),
+        layout=(layout, (Layout, type(None))),
+    )
     require_x64(setup.dtype)
     check_width(width)
     if layout is None:

@@ -41,7 +41,7 @@ from damjax.core.loop import (
     temp_bytes,
 )
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
-from damjax.validation import ensure_x64, must_text, validate
+from damjax.validation import ensure_x64, expect_types, must_text, validate
 
 
 def batch_size_of(params: PSTParams) -> int:
@@ -190,6 +190,7 @@ def sweep(
     """
     global last_plan
     setup = PSTSetup() if setup is None else setup
+    expect_types("sweep", params_batch=(params_batch, PSTParams), setup=(setup, PSTSetup))
     if batch_size is not None and (
         isinstance(batch_size, bool)
         or not isinstance(batch_size, (int, np.integer))

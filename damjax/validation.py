@@ -531,6 +531,25 @@ def check_width(width: Any) -> None:
         raise ValueError(f"width = {width!r}: must be None or a number in (0, 1] [-]")
 
 
+def expect_types(where: str, **values: tuple[Any, Any]) -> None:
+    """TypeError unless each ``name=(value, cls)`` holds a ``cls`` (a class or a tuple;
+    None passes where ``cls`` includes ``type(None)``): swapped or foreign arguments get
+    one line naming the argument, not an AttributeError from deep inside."""
+    for name, (value, cls) in values.items():
+        if not isinstance(value, cls):
+            classes = cls if isinstance(cls, tuple) else (cls,)
+            shown = {
+                type(None): "None",
+                PSTParams: "damjax.PSTParams",
+                "Layout": "a Layout (damjax.make_layout)",
+                "SlopeLayout": "a SlopeLayout (damjax.core.model.make_slope_layout)",
+            }
+            names = " or ".join(
+                shown.get(c, shown.get(c.__name__, f"damjax.{c.__name__}")) for c in classes
+            )
+            raise TypeError(f"{where}: {name} must be {names}, got {type(value).__name__}")
+
+
 def validate(
     params: PSTParams, setup: PSTSetup, *, warn_dubious: bool = True, batch: bool = False
 ) -> None:

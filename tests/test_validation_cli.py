@@ -313,6 +313,28 @@ def test_api_type_and_batch_errors_name_the_field():
         sweep(PSTParams(**base, strength_gradient=np.array([])), setup)
 
 
+def test_swapped_or_foreign_arguments_are_type_errors_naming_them():
+    from damjax import SlopeSetup, make_layout, simulate_slope, sweep
+
+    p, s = PSTParams(steady_length=3.0), PSTSetup(length=6.0, dx=0.05, duration=0.02)
+    for call, needle in [
+        (lambda: simulate_pst(s, p), "simulate_pst: params must be damjax.PSTParams, got PSTSetup"),
+        (lambda: simulate_pst(p, {"length": 6.0}), "setup must be damjax.PSTSetup, got dict"),
+        (lambda: simulate_pst(p, SlopeSetup()), "setup must be damjax.PSTSetup, got SlopeSetup"),
+        (lambda: simulate_pst(p, s, layout="abc"), "layout must be a Layout (damjax.make_layout)"),
+        (lambda: simulate_slope(p, s), "simulate_slope: setup must be damjax.SlopeSetup"),
+        (lambda: sweep(p, SlopeSetup()), "sweep: setup must be damjax.PSTSetup"),
+        (lambda: make_layout(s, p), "make_layout: params must be damjax.PSTParams"),
+    ]:
+        with pytest.raises(TypeError, match=re.escape(needle)):
+            call()
+    # make_layout checks the values it sizes the grid from
+    with pytest.raises(ValueError, match=re.escape("dx (--dx) = -1.0: must be in (0, inf) m")):
+        make_layout(p, PSTSetup(dx=-1.0))
+    with pytest.raises(ValueError, match=re.escape("youngs_modulus (--youngs-modulus) = nan")):
+        make_layout(PSTParams(youngs_modulus=float("nan")), s)
+
+
 def test_traced_parameters_stiffer_than_the_layout_stop_with_a_message():
     """Under jit/grad the values cannot be checked before tracing; a slab stiffer than the
     layout's (dt beyond the Courant limit) used to return NaN silently."""

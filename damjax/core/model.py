@@ -30,7 +30,10 @@ from damjax.materials import mcc, slab_fracture, weak_layer
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
 from damjax.validation import (
     check_problem_size,
+    expect_types,
     is_plastic,
+    param_problems,
+    setup_problems,
     traced_map_checks,
     traced_param_checks,
     validate,
@@ -96,7 +99,12 @@ def _max_cohesive_slip(params: PSTParams) -> float:
 
 
 def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
-    """Grid and step counts; parameters enter only through concrete maxima (a batch's)."""
+    """Grid and step counts; parameters enter only through concrete maxima (a batch's).
+    Invalid values are a ValueError naming the field (as `damjax.simulate_pst` checks)."""
+    expect_types("make_layout", params=(params, PSTParams), setup=(setup, PSTSetup))
+    problems = setup_problems(setup) or param_problems(params, setup)
+    if problems:
+        raise ValueError("\n".join(problems))
     dx, ppc = setup.dx, int(setup.particles_per_cell)
     n_cells = max(1, int(round(setup.length / dx)))
     slide = 0.5 * _slide_accel(params) * setup.duration**2 + _max_cohesive_slip(params)

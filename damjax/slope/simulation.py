@@ -40,7 +40,7 @@ from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State, ra
 from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
 from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
 from damjax.params import PSTParams, SlopeSetup
-from damjax.validation import ensure_x64, require_x64, slope_problems
+from damjax.validation import ensure_x64, expect_types, require_x64, slope_problems
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
 SPEED_WINDOW_M = 4.0  # length of the sliding windows of the peak crack speed [m]
@@ -324,6 +324,12 @@ def simulate_slope(
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
     setup = SlopeSetup() if setup is None else setup
+    expect_types(
+        "simulate_slope",
+        params=(params, PSTParams),
+        setup=(setup, SlopeSetup),
+        layout=(layout, (SlopeLayout, type(None))),
+    )
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
     inputs = (params, slope_deg, tau_peak, fall_deg)
