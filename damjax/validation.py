@@ -480,6 +480,8 @@ def dubious(
             for k in ("tau_peak", "steady_length", "strength_gradient", "softening")
             if (given is None or k in given) and scalar(k) != getattr(default, k)
         ]
+        if params.strength_profile is not None:
+            ignored.append("strength_profile")
         if ignored:
             notes.append(
                 f"{name_of('controlled', 'setup')} = true: the weak layer is unbreakable, so "
@@ -515,7 +517,57 @@ def dubious(
         notes.append(
             f"{name_of('cfl', 'setup')} = {fmt(setup.cfl)}: close to the stability limit 1"
         )
+    notes += _unused_slab_settings(params, setup, given, name_of)
     return notes
+
+
+def _unused_slab_settings(
+    params: PSTParams, setup: PSTSetup, given: set[str] | None, name_of: Any
+) -> list[str]:
+    """Settings of a slab law the run does not use, set away from their defaults: the
+    plastic law's with an elastic slab (every tensile_strength infinite), the seeded
+    strength field's with the "paper" slab (only "crack_band" seeds one)."""
+    default, default_setup = PSTParams(), PSTSetup()
+
+    def changed(name: str) -> bool:
+        if given is not None and name not in given:
+            return False
+        v, d = getattr(params, name), getattr(default, name)
+        if v is None or d is None:
+            return v is not d
+        try:
+            return bool(np.any(np.asarray(v, dtype=float) != float(d)))
+        except (TypeError, ValueError):
+            return False
+
+    field_keys = ("slab_strength_cov", "slab_strength_length")
+    if is_plastic(params) is False:
+        unused = [
+            name_of(k)
+            for k in ("mcc_m", "mcc_beta", "mcc_xi", "slab_fracture_energy", *field_keys)
+            if changed(k)
+        ]
+        if unused:
+            return [
+                f"{name_of('tensile_strength')} = inf (an elastic slab): "
+                + ", ".join(unused)
+                + (" is" if len(unused) == 1 else " are")
+                + " ignored (they set the plastic slab's law)"
+            ]
+        return []
+    if setup.slab_fracture == "crack_band":
+        return []
+    unused = [name_of(k) for k in field_keys if changed(k)]
+    if setup.seed != default_setup.seed:
+        unused.append(name_of("seed", "setup"))
+    if not unused:
+        return []
+    return [
+        f"{name_of('slab_fracture', 'setup')} = {setup.slab_fracture!r}: "
+        + ", ".join(unused)
+        + (" is" if len(unused) == 1 else " are")
+        + ' ignored (they set the seeded strength field of slab_fracture = "crack_band")'
+    ]
 
 
 def check_width(width: Any) -> None:

@@ -444,3 +444,18 @@ def test_array_valued_params_fields_take_numbers_or_arrays():
     # and back to TOML
     text = scenario.dumps({"params": {"strength_profile": np.array([[0.0, 1.0], [2.0, np.inf]])}})
     assert tomllib.loads(text)["params"]["strength_profile"] == [[0.0, 1.0], [2.0, math.inf]]
+
+
+def test_a_written_slope_scenario_reads_back_without_warnings():
+    """`to_toml` writes every field, the PST-only defaults included: not "given" then."""
+    import warnings as _w
+
+    scn = scenario.load("slope-quick").replace(setup={"duration": 1.0})
+    with _w.catch_warnings(record=True) as caught:
+        _w.simplefilter("always")
+        back = scenario.loads(scenario.dumps(scn))
+    assert [str(w.message) for w in caught] == []
+    assert back.to_toml() == scn.to_toml()
+    text = scn.to_toml().replace("steady_length = 20.0", "steady_length = 5.0")
+    with pytest.warns(UserWarning, match="params.steady_length: PST strength profile, ignored"):
+        scenario.loads(text)

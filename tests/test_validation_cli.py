@@ -352,3 +352,24 @@ def test_traced_parameters_stiffer_than_the_layout_stop_with_a_message():
     assert math.isfinite(float(value))
     with pytest.raises(Exception, match="breaks the Courant limit"):
         jax.block_until_ready(f(dataclasses.replace(params, youngs_modulus=4e7)))
+
+
+def test_settings_a_slab_law_does_not_use_are_reported_as_ignored(capsys):
+    small = ["pst", "--length", "6", "--steady-length", "3", "--duration", "0.02", "--quiet"]
+    cases = [
+        (
+            ["--mcc-xi", "0.5"],
+            "tensile_strength (--tensile-strength) = inf (an elastic slab): "
+            "mcc_xi (--mcc-xi) is ignored",
+        ),
+        (
+            ["--tensile-strength", "6000", "--slab-strength-cov", "0.5", "--seed", "3"],
+            "slab_fracture (--slab-fracture) = 'paper': slab_strength_cov (--slab-strength-cov), "
+            "seed (--seed) are ignored",
+        ),
+    ]
+    for extra, needle in cases:
+        assert main(small + extra) == 0, extra
+        assert needle in capsys.readouterr().err, extra
+    assert main(small + ["--tensile-strength", "6000", "--mcc-xi", "0.5"]) == 0
+    assert "ignored" not in capsys.readouterr().err  # the plastic slab uses mcc_xi

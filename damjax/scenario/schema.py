@@ -625,8 +625,13 @@ def _toml_value(v: Any) -> str:
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
-def dumps(data: dict[str, Any]) -> str:
-    """TOML text of a scenario dict: top-level keys first, then one table per section."""
+def dumps(data: Any) -> str:
+    """TOML text of a scenario dict (or of a `Scenario`: its ``to_toml()``): top-level
+    keys first, then one table per section."""
+    if hasattr(data, "to_toml") and not isinstance(data, dict):
+        return data.to_toml()
+    if not isinstance(data, dict):
+        raise TypeError(f"dumps: a scenario dict or Scenario, got {type(data).__name__}")
     lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
     for k, v in data.items():
         if isinstance(v, dict):

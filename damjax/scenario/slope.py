@@ -370,7 +370,10 @@ def check(
     given = {f"params.{k}": v for k, v in pvals.items()}
     reported = {f"params.{k}" for k in pbad}
     problems += _retarget(plines, reported, given)
-    ignored = [k for k in PST_ONLY_PARAMS if k in pgiven]
+    # given away from the default: a file written by `Scenario.to_toml` lists every field
+    ignored = [
+        k for k in PST_ONLY_PARAMS if k in pgiven and pvals.get(k) != getattr(PSTParams(), k)
+    ]
     if ignored:
         notes.append(
             ", ".join(f"params.{k}" for k in ignored)
