@@ -9,7 +9,8 @@ files: ``damjax scenarios`` (list the shipped ones), ``damjax run SCENARIO
 
 Bad input exits with status 2 and one line per problem (flag or TOML key, value, valid
 range); never a traceback. A runtime fault exits with status 3 after writing the results
-up to it; an interrupt with status 130.
+up to it; an interrupt with status 130, SIGTERM (``kill``, a scheduler's time limit) with
+143, both after writing a checkpoint where the run takes them.
 
 One module (~650 lines) on purpose: one argparse parser, and per subcommand a thin
 function that parses, calls the module doing the work and prints; splitting it would
@@ -23,7 +24,9 @@ import dataclasses
 import json
 import math
 import os
+import signal
 import sys
+import threading
 import warnings
 from typing import Any, NoReturn
 
@@ -654,12 +657,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_SIGTERM = threading.Event()
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    """SIGTERM (``kill``, a batch scheduler's time limit) as Ctrl-C: a run with
+    checkpoints writes one for its last completed chunk and names the resume command."""
+    _SIGTERM.set()
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
         ns = parser.parse_args(argv)
     except SystemExit as exc:  # usage error (status 2, one line) or --help (status 0)
         return exc.code if isinstance(exc.code, int) else 2
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        _SIGTERM.clear()
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        rc = _dispatch(ns)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+    return 143 if rc == 130 and _SIGTERM.is_set() else rc  # 128 + SIGTERM, as a shell reports
+
+
+def _dispatch(ns: argparse.Namespace) -> int:
     try:
         return ns.func(ns)
     except ValueError as exc:  # validation: one line per problem

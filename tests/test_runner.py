@@ -258,6 +258,17 @@ def test_killed_runs_resume_identically(tmp_path, scn_file, env):
     assert_same_run(ref, out)
 
 
+def test_sigterm_writes_the_checkpoint_and_exits_143(tmp_path, scn_file, env):
+    """`kill` (a batch scheduler's time limit) is an interrupt: the checkpoint of the last
+    completed chunk is written and the resume command named; status 128 + 15."""
+    out = tmp_path / "run"
+    ck = out / runner.CHECKPOINT
+    proc = _start(env, "run", str(scn_file), "--out", str(out), "--checkpoint-every", "0")
+    rc, err = _signal_after_checkpoint(proc, ck, signal.SIGTERM)
+    assert rc == 143 and f"damjax resume {out}" in err and "Traceback" not in err, err
+    assert int(io.read_npz(ck)["chunk"]) >= 1
+
+
 # --------------------------------------------------------------------------- faults
 
 
