@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from typing import Any
 
 import equinox as eqx
@@ -153,6 +154,46 @@ class PSTResult:
         from traced ones (`jax.grad`, `jax.vmap`)."""
         v = self.summary["arrest_position_smooth_m"]
         return v if is_traced(v) or np.ndim(v) > 0 else float(v)
+
+    def to_dataset(self, snapshots: bool = True) -> Any:
+        """The result as an `xarray.Dataset`, as `damjax run` writes ``results.nc``: the
+        crack tip and speed per step, the final fields on ``x``, the per-chunk snapshots
+        (``snapshots``), CF ``units`` and ``long_name``; global attributes
+        ``damjax_version``, ``summary`` (JSON, without the timings) and ``scenario`` (the
+        TOML of these parameters and setup: `damjax.scenario.loads` reads it back).
+        Results of concrete parameters only (not from inside `jax.grad`/`jit`/`vmap`)."""
+        if is_traced(self.tip) or not isinstance(self.tip, np.ndarray):
+            raise TypeError(
+                "PSTResult.to_dataset: a result of concrete parameters (this one holds JAX "
+                "arrays from inside jax.grad/jit/vmap)"
+            )
+        from damjax import io, runner
+        from damjax.scenario import Scenario
+
+        stable = {k: v for k, v in self.summary.items() if k not in runner.TIMING_KEYS}
+        scn = Scenario(name="simulate_pst", params=self.params, setup=self.setup)
+        attrs = {
+            "Conventions": "CF-1.10",
+            "title": "damjax PST (simulate_pst)",
+            "source": f"damjax {runner._version()}",
+            "damjax_version": runner._version(),
+            "scenario": scn.to_toml(),
+            "summary": io.to_json(stable),
+            "fault": self.fault,
+        }
+        return io.result_dataset(
+            self,
+            crack_speed=diagnostics.crack_speed(self.time, self.tip),
+            attrs=attrs,
+            snapshots=snapshots,
+        )
+
+    def to_netcdf(self, path: str | os.PathLike[str], snapshots: bool = True) -> None:
+        """Write `to_dataset` to ``path`` (NetCDF4 with h5netcdf, else NetCDF3; atomically:
+        a temporary file, then a rename). Read it with `damjax.io.open_dataset`."""
+        from damjax import io
+
+        io.write_dataset(path, self.to_dataset(snapshots))
 
 
 jax.tree_util.register_dataclass(

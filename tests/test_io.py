@@ -158,3 +158,28 @@ def test_plot_leaves_a_chosen_matplotlib_backend_alone():
     code = code.replace("matplotlib.use('svg'); ", "")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.stdout.strip().lower() == "agg", out.stderr
+
+
+def test_a_python_result_writes_the_results_file_damjax_run_writes(tmp_path):
+    import jax
+
+    import damjax
+    from damjax import scenario
+
+    params = damjax.PSTParams(steady_length=3.0)
+    setup = damjax.PSTSetup(length=6.0, dx=0.05, duration=0.05)
+    r = damjax.simulate_pst(params, setup)
+    r.to_netcdf(tmp_path / "r.nc")
+    ds = io.open_dataset(tmp_path / "r.nc")
+    np.testing.assert_array_equal(ds["crack_tip"].values, r.tip)
+    np.testing.assert_array_equal(ds["slip"].values, r.slip)
+    assert ds["sigma_xx"].attrs["units"] == "Pa" and ds["x"].size == r.x.size
+    back = scenario.loads(ds.attrs["scenario"])
+    assert back.params == params and back.setup == setup
+    assert "wall_time_s" not in ds.attrs["summary"]
+    import equinox as eqx
+
+    with_theta = lambda th: eqx.tree_at(lambda p: p.strength_gradient, params, th)  # noqa: E731
+    traced = jax.jit(lambda th: damjax.simulate_pst(with_theta(th), setup))(500.0)
+    with pytest.raises(TypeError, match="a result of concrete parameters"):
+        traced.to_dataset()
