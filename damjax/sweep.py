@@ -46,7 +46,7 @@ from damjax.validation import ensure_x64, expect_types, must_text, validate
 
 def batch_size_of(params: PSTParams) -> int:
     """Length B of the batch axis (1 if every leaf is a scalar)."""
-    sizes = set()
+    sizes: dict[int, list[str]] = {}
     for f in dataclasses.fields(params):
         v = getattr(params, f.name)
         if v is None:
@@ -60,10 +60,14 @@ def batch_size_of(params: PSTParams) -> int:
         if nd == 1:
             if np.shape(v)[0] == 0:
                 raise ValueError(f"params_batch.{f.name} is empty: a batch needs >= 1 member")
-            sizes.add(int(np.shape(v)[0]))
+            sizes.setdefault(int(np.shape(v)[0]), []).append(f.name)
     if len(sizes) > 1:
-        raise ValueError(f"params_batch: batched fields have different lengths {sorted(sizes)}")
-    return sizes.pop() if sizes else 1
+        lengths = "; ".join(f"{', '.join(names)}: {n}" for n, names in sorted(sizes.items()))
+        raise ValueError(
+            f"params_batch: batched fields have different lengths ({lengths}); every "
+            "batched field needs one value per member"
+        )
+    return next(iter(sizes)) if sizes else 1
 
 
 def broadcast_batch(params: PSTParams, n: int) -> PSTParams:

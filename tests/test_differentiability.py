@@ -172,7 +172,9 @@ def test_sweep_sharded_over_four_host_devices_equals_unsharded():
 
 
 def test_sweep_rejects_inconsistent_batches():
-    with pytest.raises(ValueError, match="different lengths"):
+    with pytest.raises(
+        ValueError, match=r"different lengths \(strength_gradient: 2; softening: 3\)"
+    ):
         damjax.sweep(PSTParams(strength_gradient=jnp.ones(2), softening=jnp.ones(3)), SETUP)
     with pytest.raises(ValueError, match="poisson"):
         damjax.sweep(PSTParams(poisson=jnp.array([0.3, 0.7])), SETUP)
