@@ -31,7 +31,7 @@ import warnings
 from typing import Any, NoReturn
 
 from damjax.params import PSTParams, PSTSetup
-from damjax.validation import setup_problems
+from damjax.validation import PARAM_RULES, SETUP_CHOICES, SETUP_RULES, setup_problems
 
 _PARAM_FIELDS = [f.name for f in dataclasses.fields(PSTParams)]
 _SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n not in ("strength_profile", "slope_profile")]
@@ -137,7 +137,8 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
             type=_number,
             default=getattr(defaults_p, name),
             action=_StoreGiven,
-            help=_NONE_HELP.get(name, f"default {getattr(defaults_p, name)}"),
+            help=f"{PARAM_RULES[name][1]}; "
+            + _NONE_HELP.get(name, f"default {getattr(defaults_p, name)}"),
         )
     g = p.add_argument_group(
         "snow profile (slab thickness, density, E(rho), slope and weak-layer strength from "
@@ -191,12 +192,19 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("numerics")
     for name in _SETUP_FIELDS:
         typ = str if name in _STR_FIELDS else _number
+        default = getattr(defaults_s, name)
+        if name in SETUP_CHOICES:
+            valid = "one of " + ", ".join(SETUP_CHOICES[name])
+            metavar = "{" + ",".join(SETUP_CHOICES[name]) + "}"
+        else:
+            valid, metavar = SETUP_RULES[name][1], None
         g.add_argument(
             "--" + name.replace("_", "-"),
             dest=name,
             type=typ,
-            default=getattr(defaults_s, name),
-            help=f"default {getattr(defaults_s, name)}",
+            default=default,
+            metavar=metavar,
+            help=f"{valid}; default {default}",
         )
     g.add_argument(
         "--controlled",
