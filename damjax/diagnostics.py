@@ -231,7 +231,10 @@ def summarize(
     the theory values with a softening weak layer (they are the brittle closed forms). A
     controlled run's ``tension_gradient_pa_per_m`` is the elastic ramp k_x: None where the
     slab yielded in tension (``opening`` > 0) over the fitted window. ``slab_yielded``:
-    whether any of the slab did."""
+    whether any of the slab did. ``max_crack_speed_over_cs`` is taken from the
+    event-based tip, the furthest broken particle: where the layer fails ahead of the
+    front (past a strong band, say) the tip jumps, and the ratio can exceed the strip's
+    wave speed ratio c_p / c_s."""
     timed = n_steps if timed_steps is None else timed_steps
     p, s = result.params, result.setup
     cs = float(theory.shear_wave_speed(p))

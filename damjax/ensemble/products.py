@@ -41,7 +41,10 @@ _UNITS = {
     "release_area_m2": ("m2", "area of failed weak layer"),
     "upslope_arrest_distance_m": ("m", "up-slope arrest distance from the start"),
     "upslope_arrest_position_m": ("m", "up-slope arrest position from the lower edge"),
-    "crossslope_extent_m": ("m", "cross-slope extent of the release from the start"),
+    "crossslope_extent_m": (
+        "m",
+        "cross-slope extent of the release from the start, within 1 m up or down slope of it",
+    ),
     "crown_area_m2": ("m2", "area of slab with h < 0.98 h0 (crown)"),
     "stauchwall_area_m2": ("m2", "area of slab with h > 1.02 h0 (stauchwall)"),
     "slab_fracture_area_m2": ("m2", "area of fractured slab"),

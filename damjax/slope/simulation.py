@@ -402,6 +402,8 @@ def simulate_slope(
         "arrested_before_top": bool(x_top < setup.length - 2.0) and quiet,
         "front_quiet_at_end": quiet,
         "last_upslope_failure_time_s": last_up if up_t.size else None,
+        # measured across the start, in the band |x - x0| <= SPEED_BAND (the band of the
+        # cross-slope speed), not over the whole map
         "crossslope_extent_m": float(across),
         # None where a band had too few failures to fit (JSON has no NaN)
         "upslope_crack_speed_over_cs": _ratio_or_none(v_up_peak, cs),
