@@ -262,23 +262,8 @@ def traced_param_checks(params: PSTParams) -> list[tuple[Any, str]]:
     Inside `jax.jit` no value is known when the run is traced, so these become runtime
     errors (`equinox.error_if`, `damjax.core.model`) instead of a silent NaN or a
     plausible number; concrete values are checked before tracing (`param_problems`)."""
-    import jax
-    import jax.numpy as jnp
-
-    out = []
-    for name, (ok, valid) in {**PARAM_RULES, **PROFILE_RULES}.items():
-        value = getattr(params, name)
-        if value is None or not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(value)):
-            continue
-        bad = ~jnp.all(ok(jnp.asarray(value)))
-        out.append(
-            (
-                bad,
-                f"{label(name)}: a value outside {valid}, found at run time (under "
-                "jax.jit the values are not known when the run is traced)",
-            )
-        )
-    return out
+    rules = {**PARAM_RULES, **PROFILE_RULES}
+    return _traced_range_checks({k: getattr(params, k) for k in rules}, rules, label)
 
 
 # the maps of a slope run (`damjax.simulate_slope`'s ``tau_peak``, ``slope_deg``,
@@ -292,22 +277,25 @@ MAP_RULES: dict[str, tuple[Any, str]] = {
 
 def traced_map_checks(**maps: Any) -> list[tuple[Any, str]]:
     """`traced_param_checks` for the maps of a slope run given by name (`MAP_RULES`)."""
-    import jax
+    return _traced_range_checks(maps, MAP_RULES, str)
+
+
+def _traced_range_checks(
+    values: dict[str, Any], rules: dict[str, tuple[Any, str]], name_of: Any
+) -> list[tuple[Any, str]]:
     import jax.numpy as jnp
 
     out = []
-    for name, value in maps.items():
-        if not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(value)):
+    for name, value in values.items():
+        if value is None or not is_traced(value):
             continue
-        ok, valid = MAP_RULES[name]
+        ok, valid = rules[name]
         bad = ~jnp.all(ok(jnp.asarray(value)))
-        out.append(
-            (
-                bad,
-                f"{name}: a value outside {valid}, found at run time (under jax.jit "
-                "the values are not known when the run is traced)",
-            )
+        message = (
+            f"{name_of(name)}: a value outside {valid}, found at run time (under jax.jit "
+            "the values are not known when the run is traced)"
         )
+        out.append((bad, message))
     return out
 
 
