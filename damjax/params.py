@@ -227,3 +227,30 @@ class SlopeSetup:
 
     def __post_init__(self) -> None:
         _normalise_dtype(self)
+
+
+def _unknown_keywords_named(cls: Any, shown: str) -> None:
+    """Make ``cls(misspelt=...)`` a TypeError that names the field it probably meant
+    (``PSTParams(poison=0.3)``: did you mean 'poisson'?) instead of the generated
+    ``__init__``'s bare "unexpected keyword argument"."""
+    import difflib
+    import functools
+
+    init = cls.__init__
+    names = [f.name for f in dataclasses.fields(cls)]
+
+    @functools.wraps(init)
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        for key in kwargs:
+            if key not in names:
+                close = difflib.get_close_matches(key, names, n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else f" (fields: {names})"
+                raise TypeError(f"{shown}: unknown field {key!r}{hint}")
+        init(self, *args, **kwargs)
+
+    cls.__init__ = __init__
+
+
+_unknown_keywords_named(SnowParams, "PSTParams")
+_unknown_keywords_named(PSTSetup, "PSTSetup")
+_unknown_keywords_named(SlopeSetup, "SlopeSetup")

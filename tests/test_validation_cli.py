@@ -328,6 +328,12 @@ def test_swapped_or_foreign_arguments_are_type_errors_naming_them():
     ]:
         with pytest.raises(TypeError, match=re.escape(needle)):
             call()
+    with pytest.raises(
+        TypeError, match=re.escape("unknown field 'poison' (did you mean 'poisson'?)")
+    ):
+        PSTParams(poison=0.3)
+    with pytest.raises(TypeError, match=re.escape("PSTSetup: unknown field 'lenght'")):
+        PSTSetup(lenght=6.0)
     # make_layout checks the values it sizes the grid from
     with pytest.raises(ValueError, match=re.escape("dx (--dx) = -1.0: must be in (0, inf) m")):
         make_layout(p, PSTSetup(dx=-1.0))
