@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 TMP_SUFFIX = ".tmp"
+# summary keys that differ between identical runs (timings): kept out of results files
+TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s", "phases_s")
 _UMASK = os.umask(0o022)
 os.umask(_UMASK)
 

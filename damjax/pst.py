@@ -167,16 +167,17 @@ class PSTResult:
                 "PSTResult.to_dataset: a result of concrete parameters (this one holds JAX "
                 "arrays from inside jax.grad/jit/vmap)"
             )
-        from damjax import io, runner
-        from damjax.scenario import Scenario
+        from damjax import io
+        from damjax._version import __version__
+        from damjax.scenario.schema import Scenario
 
-        stable = {k: v for k, v in self.summary.items() if k not in runner.TIMING_KEYS}
+        stable = {k: v for k, v in self.summary.items() if k not in io.TIMING_KEYS}
         scn = Scenario(name="simulate_pst", params=self.params, setup=self.setup)
         attrs = {
             "Conventions": "CF-1.10",
             "title": "damjax PST (simulate_pst)",
-            "source": f"damjax {runner._version()}",
-            "damjax_version": runner._version(),
+            "source": f"damjax {__version__}",
+            "damjax_version": __version__,
             "scenario": scn.to_toml(),
             "summary": io.to_json(stable),
             "fault": self.fault,

@@ -50,7 +50,7 @@ SLOPE_PLOT = "slope.png"  # slope scenarios: maps (h, crown, stauchwall, arrival
 SLOPE_ANIMATION = "release.gif"  # slope scenarios: animation of the release
 SLOPE_OUTPUTS = (SLOPE_PLOT, SLOPE_ANIMATION)
 CHECKPOINT_FORMAT = "damjax-checkpoint/1"
-TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s", "phases_s")
+TIMING_KEYS = io.TIMING_KEYS  # kept out of results.nc (summary.json has them)
 
 
 @dataclasses.dataclass
