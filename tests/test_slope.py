@@ -677,3 +677,32 @@ def test_crack_speed_map_is_exact_for_plane_and_radial_fronts_up_to_the_edges():
     v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y))
     far = r > 5.0
     np.testing.assert_allclose(v[far], 60.0, rtol=0.01)
+
+
+def test_a_slope_below_the_friction_angle_reports_the_saw_cut_not_a_release():
+    """At 20 deg (phi 27 deg) a released slab does not slide: the crack never runs ahead of
+    the saw. Warned before the run (the start's slope) and after it (saw_stopped False,
+    release = the sawn area); at 35 deg the saw stops and the release exceeds the cut."""
+    setup = SlopeSetup(
+        length=12.0, width=6.0, dx=0.25, duration=0.6, start=(3.0, 3.0), chunk_steps=50
+    )
+    p = dict(tau_peak=1200.0, strength_gradient=150.0)
+    with pytest.warns(UserWarning) as caught:
+        flat = simulate_slope(PSTParams(slope_deg=20.0, **p), setup)
+    text = " ".join(str(w.message) for w in caught)
+    assert "at or below friction_deg = 27" in text and "never ran ahead of the saw" in text
+    assert flat.summary["saw_stopped"] is False
+    assert flat.summary["release_area_m2"] == pytest.approx(flat.summary["sawn_area_m2"])
+    steep = simulate_slope(PSTParams(slope_deg=35.0, **p), setup)
+    assert steep.summary["saw_stopped"] is True
+    assert steep.summary["release_area_m2"] > 2 * steep.summary["sawn_area_m2"]
+
+
+def test_front_speeds_of_arrivals_that_fall_with_distance_are_none():
+    from damjax.slope.simulation import _front_speed
+
+    coord = np.linspace(0.0, 8.0, 81)
+    mean, peak = _front_speed(coord, 1.0 + coord / 50.0, 0.0, 8.0)
+    assert mean == pytest.approx(50.0, rel=1e-6) and peak == pytest.approx(50.0, rel=1e-6)
+    mean, peak = _front_speed(coord, 1.0 - coord / 50.0, 0.0, 8.0)
+    assert math.isnan(mean) and math.isnan(peak)

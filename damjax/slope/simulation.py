@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from typing import Any
 
 import equinox as eqx
@@ -70,7 +71,10 @@ class SlopeResult:
         slope_deg: (nx, ny) local slope angle psi [deg].
         snapshots: per chunk: ``time`` [s], the height map [m] and the broken map (0/1).
         summary: diagnostics by name, units in the key (``release_area_m2``,
-            ``upslope_arrest_distance_m``, ``wall_time_s``, ...).
+            ``upslope_arrest_distance_m``, ``wall_time_s``, ...). ``release_area_m2``
+            counts every failed cell, the saw's cut included (``sawn_area_m2``); where
+            ``saw_stopped`` is False the crack never ran ahead of the saw and the
+            release is the cut (a warning says so).
         setup: the `SlopeSetup` that was run.
         params: the `PSTParams` that were run.
     """
@@ -241,7 +245,10 @@ def _front_speed(
     keys = sorted(tb)
     cb = np.array(keys) * 0.5 + 0.25
     tt = np.array([tb[k] for k in keys])
-    mean = float(1.0 / np.polyfit(cb, tt, 1)[0])
+    # arrival times that fall with distance (a front from elsewhere, a noisy strength
+    # field) have no speed along this band
+    slope = float(np.polyfit(cb, tt, 1)[0])
+    mean = 1.0 / slope if slope > 0 else math.nan
     n_win = int(round(window / 0.5))
     speeds = []
     for i in range(cb.size):
@@ -251,6 +258,37 @@ def _front_speed(
             if slope > 0:
                 speeds.append(float(1.0 / slope))
     return mean, max(speeds, default=math.nan)
+
+
+def _slope_notes(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> list[str]:
+    """Valid but dubious slope inputs: a start at or below the friction angle (a released
+    slab does not slide there, so the crack cannot run away from the saw), a length or
+    width that is not a whole number of cells (the grid rounds it)."""
+    notes = []
+    psi = np.asarray(slope_deg, dtype=float)
+    phi = float(params.friction_deg)
+    x0, y0 = setup.start
+    if psi.ndim == 2:
+        i = min(max(int(x0 / setup.dx), 0), psi.shape[0] - 1)
+        j = min(max(int(y0 / setup.dx), 0), psi.shape[1] - 1)
+        psi_start = float(psi[i, j])
+    else:
+        psi_start = float(psi)
+    if psi_start <= phi:
+        notes.append(
+            f"slope_deg = {psi_start:.3g} at the start ({x0:g}, {y0:g}) m: at or below "
+            f"friction_deg = {phi:g}, a released slab does not slide there, so the crack "
+            "does not run away from the saw (the paper's mechanism needs slope > friction)"
+        )
+    for name in ("length", "width"):
+        v = float(getattr(setup, name))
+        n = max(1, round(v / setup.dx))
+        if abs(n * setup.dx - v) > 1e-6 * v:
+            notes.append(
+                f"{name} = {v:g}: not a whole number of cells of dx = {setup.dx:g}; the "
+                f"area is {n * setup.dx:.6g} m {'long' if name == 'length' else 'wide'}"
+            )
+    return notes
 
 
 def _ratio_or_none(v: float, cs: float) -> float | None:
@@ -343,6 +381,8 @@ def simulate_slope(
     problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
+    for note in _slope_notes(params, setup, slope_deg):
+        warnings.warn(note, stacklevel=2)
     ensure_x64(setup.dtype)
     if layout is None:
         layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
@@ -416,6 +456,9 @@ def simulate_slope(
         "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
         "release_area_smooth_m2": float(release_area_smooth(model, final)),
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
+        # the saw stops once the crack leads it: until then the release is the cut
+        "saw_stopped": not bool(final.saw_active),
+        "sawn_area_m2": float(np.sum(np.asarray(model.saw_coord) < saw_r) * float(model.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
         "n_particles": int(xp.size),
@@ -424,6 +467,15 @@ def simulate_slope(
         "wall_time_s": info.wall_time_s,
         "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
     }
+    if bool(final.saw_active) and not fault:
+        warnings.warn(
+            f"simulate_slope: the crack never ran ahead of the saw in {float(final.time):.3g} "
+            f"s: release_area_m2 ({summary['release_area_m2']:.4g} m^2) is the saw cut and "
+            "the weak layer it loaded, not a self-propagating release (summary "
+            "saw_stopped = False; a longer duration, or a slope steeper than the friction "
+            "angle at the start)",
+            stacklevel=2,
+        )
     nx, ny = layout.n_cells
     snapshots = {}
     if snaps:
