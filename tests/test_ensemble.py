@@ -229,7 +229,7 @@ def test_killed_ensemble_resumes_to_the_same_file(full_run, tmp_path):
     assert not (cut / ensemble.ENSEMBLE_FILE).exists()
     lines: list[str] = []
     ensemble.run(ens, cut, plot=False, log=lines.append)
-    assert any("resuming: 1 of 2 slices done, 1 to run" in line for line in lines)
+    assert any("resuming: 2 of 3 members done, 1 to run" in line for line in lines)
     a = io.open_dataset(out / ensemble.ENSEMBLE_FILE)
     b = io.open_dataset(cut / ensemble.ENSEMBLE_FILE)
     assert a.identical(b)
@@ -239,6 +239,23 @@ def test_killed_ensemble_resumes_to_the_same_file(full_run, tmp_path):
     )
     with pytest.raises(ValueError, match="holds an ensemble of another scenario"):
         ensemble.run(other, cut, plot=False)
+
+
+def test_a_grown_ensemble_runs_only_its_new_members(full_run, tmp_path):
+    """3 members in slices of 2, then 4: the new plan's slice 2-3 holds a finished member
+    (2); only member 3 runs, and every member is in the file once."""
+    import shutil
+
+    ens, out, ds = full_run
+    grown = tmp_path / "grown"
+    shutil.copytree(out, grown)
+    bigger = ensemble.from_scenario(ens.scenario, {"slice_size": 2}, members=4)
+    lines: list[str] = []
+    ds4 = ensemble.run(bigger, grown, plot=False, log=lines.append)
+    assert any("resuming: 3 of 4 members done, 1 to run" in line for line in lines), lines
+    assert ds4["member"].values.tolist() == [0, 1, 2, 3]
+    np.testing.assert_array_equal(ds4["released"].values[:3], ds["released"].values)
+    assert "members_00003-00004.nc" in {p.name for p in (grown / ensemble.SLICE_DIR).iterdir()}
 
 
 def _port() -> int:

@@ -330,11 +330,16 @@ def run(
     all_slices = plan.slices(ens.members)
     done = done_slices(out)
     distributed.barrier("damjax-ensemble-scan")
-    todo = [s for s in all_slices if s not in done]
+    # by member, not by slice: a grown ensemble's plan may cut its slices elsewhere than
+    # the earlier run did (3 members in slices of 2, then 4: members 2-3 of the new plan,
+    # of which 2 is done), and no member is run twice
+    covered = {m for a, b in done for m in range(a, b)}
+    todo = [r for a, b in all_slices for r in _missing_runs(a, b, covered)]
     mine = [s for j, s in enumerate(todo) if j % n_proc == proc]
-    skipped = len(all_slices) - len(todo)
-    if skipped:
-        say(f"resuming: {skipped} of {len(all_slices)} slices done, {len(todo)} to run")
+    skipped = sum(all(m in covered for m in range(a, b)) for a, b in all_slices)
+    left = sum(b - a for a, b in todo)
+    if left < ens.members:
+        say(f"resuming: {ens.members - left} of {ens.members} members done, {left} to run")
 
     bar = None
     if progress and mine:
@@ -424,3 +429,16 @@ def _check_plan(plan: Plan, key: str, layout: Any, out: Path) -> None:
             f"{out}: its members ran with another layout ({plan.layout}); the drawn "
             "parameters of the new members need a smaller time step: give another --out"
         )
+
+
+def _missing_runs(a: int, b: int, covered: set[int]) -> list[tuple[int, int]]:
+    """The contiguous runs (first, end) of members a..b-1 not in ``covered``."""
+    runs: list[tuple[int, int]] = []
+    for m in range(a, b):
+        if m in covered:
+            continue
+        if runs and runs[-1][1] == m:
+            runs[-1] = (runs[-1][0], m + 1)
+        else:
+            runs.append((m, m + 1))
+    return runs

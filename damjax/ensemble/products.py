@@ -160,13 +160,23 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
     import xarray as xr
 
     parts = []
+    seen: set[int] = set()  # slices of earlier plans may overlap: each member once
     for (a, b), p in done_slices(Path(out_dir)).items():
         if a >= members:
             continue
         d = io.open_dataset(p)
         if key is not None and d.attrs.get("key") != key:
             raise ValueError(f"{p}: a slice of another ensemble (key {d.attrs.get('key')})")
-        parts.append(d.sel(member=slice(a, min(b, members) - 1)))
+        d = d.sel(member=slice(a, min(b, members) - 1))
+        new = [int(m) for m in d["member"].values if int(m) not in seen]
+        if not new:
+            continue
+        seen.update(new)
+        summ = json.loads(d.attrs["summaries"])
+        keep = [i for i, m in enumerate(d["member"].values) if int(m) in new]
+        d = d.isel(member=keep)
+        d.attrs["summaries"] = io.to_json([summ[i] for i in keep])
+        parts.append(d)
     if not parts:
         raise ValueError(f"{out_dir}: no finished members")
     summaries = sum((json.loads(p.attrs["summaries"])[: p.sizes["member"]] for p in parts), [])
