@@ -89,9 +89,10 @@ def _weak_layer(text: str) -> int:
 
 
 def _probability(text: str) -> float:
+    """A release-probability threshold: in (0, 1] (0 would make every cell a zone)."""
     v = _number(text)
-    if not 0.0 <= v <= 1.0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be in [0, 1]")
+    if not 0.0 < v <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be in (0, 1]")
     return v
 
 

@@ -272,7 +272,7 @@ def test_cli_export_gis_and_avaframe(run_dir, tmp_path, capsys):
     [
         (["--to", "gis"], "no results.nc or ensemble.nc"),
         (["--to", "kml"], "invalid choice: 'kml'"),
-        (["--to", "gis", "--threshold", "2"], "'2': must be in [0, 1]"),
+        (["--to", "gis", "--threshold", "2"], "'2': must be in (0, 1]"),
         (["--to", "avaframe", "--thickness", "-1"], "'-1': must be a number > 0"),
     ],
 )

@@ -225,8 +225,8 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
             f"strength.{k} = {_fmt(st[k])}" for k in ("tau_peak", "mean", "trend", "std") if k in st
         )
         raise _FieldProblem(
-            f"{keys}: give tau_peak = {float(tau[i, j]):.4g} Pa at x = {x[i]:.3g} m, "
-            f"y = {y[j]:.3g} m: the strength must stay > 0 Pa over the release area"
+            f"{keys}: these give tau_peak = {float(tau[i, j]):.4g} Pa at x = {x[i]:.3g} m, "
+            f"y = {y[j]:.3g} m; the strength must stay > 0 Pa over the release area"
         )
     start = tuple(float(c) for c in setup.start)
     if ter.get("release") and "start_window" not in st:
