@@ -276,6 +276,17 @@ def test_tilted_plane_dem_gives_its_slope_angle(tmp_path, gx, gy, upslope, fall)
     assert np.asarray(fall_deg) == pytest.approx(fall, abs=1e-3)
 
 
+def test_an_upslope_axis_across_the_fall_line_is_warned(tmp_path):
+    _plane_dem(tmp_path / "plane.asc", 0.0, math.tan(math.radians(30.0)))  # rises along +y
+    doc = raw("slope-quick")
+    doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": [1.0, 2.0], "upslope": "+x"}
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    with pytest.warns(
+        UserWarning, match=r'terrain.upslope = "\+x": the mean fall line is -?90 deg'
+    ):
+        slope_fields.resolve_fields(scn)
+
+
 def test_dem_cross_tilt_sets_the_fall_direction():
     x = np.arange(0.0, 40.01, 1.0)
     y = np.arange(0.0, 30.01, 1.0)

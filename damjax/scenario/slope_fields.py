@@ -15,7 +15,7 @@ import numpy as np
 
 from damjax.scenario.schema import _fmt
 from damjax.slope.generic import GenericSlopeCase, weak_spot
-from damjax.slope.simulation import simulate_slope
+from damjax.slope.simulation import SlopeRunWarning, simulate_slope
 
 _GENERIC_DEFAULTS = {
     "max_slope_deg": 35.0,
@@ -176,6 +176,16 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
                 f"area (mean fall direction {np.degrees(np.angle(np.mean(np.exp(1j * f)))):.0f}"
                 " deg from down-slope); the release area's x axis must point up-slope"
             )
+        mean_fall = float(np.degrees(np.angle(np.mean(np.exp(1j * f)))))
+        if abs(mean_fall) > 45.0:
+            up = ter.get("upslope", "+x")
+            warnings.warn(
+                f'terrain.upslope = "{up}": the mean fall line is {mean_fall:.0f} deg off this '
+                "axis over the release area, so 'up-slope' and 'cross-slope' results follow "
+                "the axis, not the terrain (the DEM axis closest to the fall line: leave "
+                "upslope out with a release polygon, or pick it)",
+                stacklevel=2,
+            )
     st = scn.strength or {"kind": "constant"}
     if st["kind"] == "constant":
         tau0 = float(st.get("tau_peak", params.tau_peak))
@@ -289,6 +299,7 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
     setup = dataclasses.replace(scn.setup, start=start)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
+        warnings.simplefilter("default", SlopeRunWarning)  # matched first: passed on
         res = simulate_slope(
             scn.params,
             setup,

@@ -260,6 +260,13 @@ def _front_speed(
     return mean, max(speeds, default=math.nan)
 
 
+class SlopeRunWarning(UserWarning):
+    """A slope run whose inputs or outcome need a look: a start at or below the friction
+    angle, an area that is not a whole number of cells, a crack that never ran ahead of
+    the saw (its release is the cut). Scenario runs pass these on (other warnings of
+    `simulate_slope` are the scenario loader's to give)."""
+
+
 def _slope_notes(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> list[str]:
     """Valid but dubious slope inputs: a start at or below the friction angle (a released
     slab does not slide there, so the crack cannot run away from the saw), a length or
@@ -382,7 +389,7 @@ def simulate_slope(
     if problems:
         raise ValueError("\n".join(problems))
     for note in _slope_notes(params, setup, slope_deg):
-        warnings.warn(note, stacklevel=2)
+        warnings.warn(note, SlopeRunWarning, stacklevel=2)
     ensure_x64(setup.dtype)
     if layout is None:
         layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
@@ -474,6 +481,7 @@ def simulate_slope(
             "the weak layer it loaded, not a self-propagating release (summary "
             "saw_stopped = False; a longer duration, or a slope steeper than the friction "
             "angle at the start)",
+            SlopeRunWarning,
             stacklevel=2,
         )
     nx, ny = layout.n_cells
