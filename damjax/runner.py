@@ -475,6 +475,11 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
                 f"{out_dir}: an unfinished run (no {RESULTS} yet); `damjax resume {out_dir}` "
                 "continues it"
             )
+        if (Path(out_dir) / "ensemble.nc").is_file():
+            raise ValueError(
+                f"{out_dir}: an ensemble folder (ensemble.nc, ensemble.png, "
+                "ensemble_summary.json); `damjax show` re-plots single runs"
+            )
         raise ValueError(f"{out_dir}: no {RESULTS} (not a damjax output folder?)")
     try:
         ds = io.open_dataset(path)

@@ -423,3 +423,18 @@ def test_cli_errors_are_one_line(tiny, capsys):
     assert cli.main(["ensemble", str(tiny), "--members", "0", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == "damjax: error: --members = 0: must be an integer >= 1"
+
+
+def test_every_drawable_setting_has_cf_units():
+    """The drawn values in ensemble.nc carry units: every scalar parameter and strength
+    setting an [ensemble] table may draw."""
+    from damjax.ensemble import products
+    from damjax.ensemble.spec import STRENGTH_DRAWS, _scalar_param_fields
+
+    for name in _scalar_param_fields():
+        assert products._param_units(name), name
+    assert products._param_units("tensile_strength") == "Pa"
+    assert products._param_units("strength_gradient") == "Pa m-1"
+    for names in STRENGTH_DRAWS.values():
+        for name in names:
+            assert products._STRENGTH_UNITS.get(name), name

@@ -98,7 +98,8 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         names = sorted(ens.params if part == 0 else ens.strength)
         for name in names:
             vals = [member_draws(ens, i)[part][name] for i in idx]
-            data[pre + name] = var(("member",), vals, "", f"drawn {name}")
+            units = _param_units(name) if part == 0 else _STRENGTH_UNITS.get(name, "")
+            data[pre + name] = var(("member",), vals, units, f"drawn {name}")
     stack = lambda f: np.stack([f(r) for r in results])  # noqa: E731
     data["released"] = var(
         ("member", "x", "y"),
@@ -137,6 +138,30 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         attrs={"summaries": io.to_json(summaries), "key": key_of(ens)},
     )
     return ds
+
+
+# CF units of the drawn strength-field settings (`damjax.ensemble.spec.STRENGTH_DRAWS`)
+_STRENGTH_UNITS = {
+    "mean": "Pa",
+    "mean_at": "m",
+    "trend": "Pa m-1",
+    "std": "Pa",
+    "length_scale": "m",
+    "angle_deg": "degree",
+    "trend_deg": "degree",
+    "tau_peak": "Pa",
+}
+
+
+def _param_units(name: str) -> str:
+    """CF units of a drawn PSTParams field, from its valid range's text ("(0, inf) Pa")."""
+    from damjax.validation import PARAM_RULES
+
+    text = PARAM_RULES.get(name, (None, ""))[1]
+    unit = text.rsplit(")", 1)[-1].rsplit("]", 1)[-1].strip()
+    return {"deg": "degree", "Pa/m": "Pa m-1", "kg/m^3": "kg m-3", "J/m^2": "J m-2"}.get(
+        unit, unit or "1"
+    )
 
 
 def slice_name(a: int, b: int) -> str:
