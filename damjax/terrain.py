@@ -524,7 +524,10 @@ def load_netcdf(
         if variable is None:
             cands = [v for v in ds.data_vars if ds[v].squeeze(drop=True).ndim == 2]
             if len(cands) != 1:
-                raise ValueError(f"{path}: pass variable=...; 2D data variables: {cands or 'none'}")
+                raise ValueError(
+                    f"{path}: name the variable (variable=... in Python, strength.variable "
+                    f"in a scenario); 2D data variables: {cands or 'none'}"
+                )
             variable = str(cands[0])
         if variable not in ds.data_vars:
             raise ValueError(f"{path}: no variable {variable!r} (found {list(ds.data_vars)})")

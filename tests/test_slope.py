@@ -321,6 +321,26 @@ def test_generic_terrain_and_strength_map_on_the_grid():
     assert np.all(np.isfinite(tau)) and 500.0 < tau.mean() < 2500.0
 
 
+def test_a_netcdf_strength_map_with_several_variables_names_one(tmp_path):
+    import xarray as xr
+
+    x, y = np.arange(0.0, 13.0, 1.0), np.arange(0.0, 9.0, 1.0)
+    tau = 1000.0 + 50.0 * x[None, :] + 0.0 * y[:, None]
+    xr.Dataset(
+        {"tau_peak": (("y", "x"), tau), "other": (("y", "x"), -tau)}, coords={"x": x, "y": y}
+    ).to_netcdf(tmp_path / "map.nc")
+    doc = raw("slope-quick")
+    doc["setup"].update(length=12.0, width=8.0, dx=0.25)
+    doc["terrain"] = {"kind": "plane"}
+    doc["strength"] = {"kind": "map", "file": "map.nc"}
+    with pytest.raises(ValueError, match="name the variable .*strength.variable in a scenario"):
+        slope_fields.resolve_fields(quiet_parse(doc, base_dir=tmp_path))
+    doc["strength"]["variable"] = "tau_peak"
+    _, _, got, _ = slope_fields.resolve_fields(quiet_parse(doc, base_dir=tmp_path))
+    xc, _ = slope_fields.cell_centres(quiet_parse(doc, base_dir=tmp_path).setup)
+    np.testing.assert_allclose(got[:, 0], 1000.0 + 50.0 * xc, rtol=1e-6)
+
+
 # --------------------------------------------------------------------------- 1D psi(x)
 
 

@@ -58,7 +58,10 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   slope; not rotated like a DEM); origin = [x, y] of
                                 #   the area's lower left corner in the map's
                                 #   coordinates (default [0, 0]). The map must cover
-                                #   the area (to half a map spacing).
+                                #   the area (to half a map spacing). NetCDF: a 2D
+                                #   variable on dimensions named x/y (or easting/
+                                #   northing, ...); variable = "name" picks it where
+                                #   the file holds several.
     start_window = [2.0, 8.0]   # optional, any kind: start the crack at the weakest
                                 # (2 m box-smoothed) spot with x in this window and y in
                                 # the middle half of the width (the paper's star),
@@ -145,7 +148,11 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
         "field_dx": ("float", _POS, "m"),
     },
-    "map": {"file": ("str", None, ""), "origin": ("pair", _ANY, "m")},
+    "map": {
+        "file": ("str", None, ""),
+        "origin": ("pair", _ANY, "m"),
+        "variable": ("str", None, ""),
+    },
 }
 _STRENGTH_COMMON = {"start_window": ("window", _NONNEG, "m")}
 

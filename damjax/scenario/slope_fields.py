@@ -214,7 +214,8 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
             raise _FieldProblem(f"strength.{exc}") from None
     else:
         try:
-            mx, my, mtau = fields.load_strength_map(st["file"])
+            kw = {"variable": st["variable"]} if "variable" in st else {}
+            mx, my, mtau = fields.load_strength_map(st["file"], **kw)
         except FileNotFoundError:
             raise _FieldProblem(f"strength.file = {_fmt(st['file'])}: no such file") from None
         except (OSError, ValueError, ImportError, KeyError) as exc:
