@@ -93,7 +93,9 @@ class SlopeResult:
     params: PSTParams
 
     def to_dataset(self) -> Any:
-        """xarray Dataset of the maps and snapshots, CF-style units and long names."""
+        """xarray Dataset of the maps and snapshots, CF-style units and long names.
+        `damjax.slope.results.result_dataset` adds what a run's ``results.nc`` holds
+        besides: the crack-speed map and the released / crown / stauchwall masks."""
         import json
 
         import xarray as xr
