@@ -737,3 +737,12 @@ def test_front_speeds_of_arrivals_that_fall_with_distance_are_none():
     assert mean == pytest.approx(50.0, rel=1e-6) and peak == pytest.approx(50.0, rel=1e-6)
     mean, peak = _front_speed(coord, 1.0 - coord / 50.0, 0.0, 8.0)
     assert math.isnan(mean) and math.isnan(peak)
+
+
+def test_a_strength_map_below_the_slab_weight_is_warned_in_python():
+    setup = SlopeSetup(
+        length=8.0, width=4.0, dx=0.25, duration=0.05, start=(2.0, 2.0), chunk_steps=50
+    )
+    tau = np.full((32, 16), 1.2)  # kPa given as Pa
+    with pytest.warns(UserWarning, match="at or below the gravitational shear .* on 100 %"):
+        simulate_slope(PSTParams(), setup, tau_peak=tau)

@@ -392,6 +392,20 @@ def simulate_slope(
         raise ValueError("\n".join(problems))
     for note in _slope_notes(params, setup, slope_deg):
         warnings.warn(note, SlopeRunWarning, stacklevel=2)
+    # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
+    psi = np.radians(np.asarray(slope_deg, dtype=float))
+    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(psi)
+    weak = np.broadcast_to(
+        np.asarray(tau_peak, dtype=float) <= tau_g,
+        np.broadcast_shapes(np.shape(tau_peak), np.shape(psi)),
+    )
+    if np.any(weak):
+        warnings.warn(
+            f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
+            f"{100 * float(np.mean(weak)):.3g} % of the area: the weak layer fails there "
+            "under the slab's weight at once (a strength map in kPa instead of Pa?)",
+            stacklevel=2,
+        )
     ensure_x64(setup.dtype)
     if layout is None:
         layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
