@@ -514,18 +514,19 @@ def cmd_export(ns: argparse.Namespace) -> int:
         scenario=ns.scenario, crs=ns.crs, threshold=ns.threshold, min_cells=ns.min_cells
     )
     try:
-        if ns.to == "gis":
-            from damjax.export import gis
+        with _WarningPrinter():
+            if ns.to == "gis":
+                from damjax.export import gis
 
-            files = gis.export_gis(
-                ns.run, ns.out, resolution=ns.resolution, formats=tuple(ns.formats), **kw
-            )
-        else:
-            from damjax.export import avaframe
+                files = gis.export_gis(
+                    ns.run, ns.out, resolution=ns.resolution, formats=tuple(ns.formats), **kw
+                )
+            else:
+                from damjax.export import avaframe
 
-            files = avaframe.export_avaframe(
-                ns.run, ns.out, name=ns.name, thickness=ns.thickness, **kw
-            )
+                files = avaframe.export_avaframe(
+                    ns.run, ns.out, name=ns.name, thickness=ns.thickness, **kw
+                )
     except (FileNotFoundError, ImportError) as exc:
         raise ValueError(f"{ns.run}: {exc}" if str(ns.run) not in str(exc) else str(exc)) from None
     if ns.json:

@@ -247,7 +247,14 @@ def frame_of(
     ter = data.get("terrain") or {"kind": "plane"}
     user_crs = None
     if crs is not None:
-        user_crs = need("rasterio.crs").CRS.from_user_input(crs)
+        crs_mod = need("rasterio.crs")
+        try:
+            user_crs = crs_mod.CRS.from_user_input(crs)
+        except Exception as exc:  # noqa: BLE001 - rasterio's CRSError (GDAL's words)
+            raise ValueError(
+                f"crs = {crs!r}: not a coordinate reference system rasterio reads "
+                f"(e.g. EPSG:2056, or WKT; {' '.join(str(exc).split())})"
+            ) from None
     if ter.get("kind") != "dem":
         s = np.array([0.0, nx * dx])
         return Frame(dx, nx, ny, (0.0, 0.0), (1.0, 0.0), (0.0, 1.0), s, s, user_crs, True)
@@ -529,8 +536,16 @@ def write_release_zones(
     formats: tuple[str, ...] = ("gpkg", "shp"),
 ) -> dict[str, Path]:
     """Write release zones (`release_zones`) as GeoPackage / ESRI shapefile / GeoJSON."""
+    import warnings
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if zones.crs is None:
+        warnings.warn(
+            "release zones without a CRS (the run's DEM has none, or the run is on a plane): "
+            "the files state none; pass crs= (--crs EPSG:...) to state one",
+            stacklevel=2,
+        )
     files = {}
     for fmt in formats:
         if fmt not in FORMATS:
@@ -538,7 +553,9 @@ def write_release_zones(
         path = out / f"{stem}.{fmt}"
         if path.exists():
             path.unlink()
-        zones.to_file(path, driver=_DRIVERS[fmt], engine="pyogrio")
+        with warnings.catch_warnings():  # said above, in our words
+            warnings.filterwarnings("ignore", message=".*'crs' was not provided.*")
+            zones.to_file(path, driver=_DRIVERS[fmt], engine="pyogrio")
         files[f"zones_{fmt}"] = path
     return files
 
