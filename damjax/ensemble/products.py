@@ -39,7 +39,11 @@ SUMMARY_KEYS = (
 )
 _UNITS = {
     "release_area_m2": ("m2", "area of failed weak layer"),
-    "upslope_arrest_distance_m": ("m", "up-slope arrest distance from the start"),
+    "upslope_arrest_distance_m": (
+        "m",
+        "up-slope arrest distance from the start (the area's top where arrested_before_top "
+        "is 0: a lower bound there)",
+    ),
     "upslope_arrest_position_m": ("m", "up-slope arrest position from the lower edge"),
     "crossslope_extent_m": (
         "m",
