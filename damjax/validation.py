@@ -492,21 +492,31 @@ def dubious(
                 f"{name_of('saw_speed')} = {fmt(v)}: a saw at {v / c:.2g} c_s in a "
                 "self-propagating PST (the paper saws at 6 m/s)"
             )
-    for name in ("length", "width") if setup.dim == 2 and setup.lateral == "free" else ("length",):
-        v = float(getattr(setup, name))
-        n = max(1, round(v / setup.dx))
-        if abs(n * setup.dx - v) > 1e-6 * v:
-            notes.append(
-                f"{name_of(name, 'setup')} = {fmt(v)}: not a whole number of cells of "
-                f"dx = {fmt(setup.dx)}; the strip is {n * setup.dx:.6g} m"
-                + (" long" if name == "length" else " wide")
-            )
+    sides = ("length", "width") if setup.dim == 2 and setup.lateral == "free" else ("length",)
+    for name, v, grid in partial_cells(setup, sides):
+        notes.append(
+            f"{name_of(name, 'setup')} = {fmt(v)}: not a whole number of cells of "
+            f"dx = {fmt(setup.dx)}; the strip is {grid:.6g} m"
+            + (" long" if name == "length" else " wide")
+        )
     if setup.cfl > 0.9:
         notes.append(
             f"{name_of('cfl', 'setup')} = {fmt(setup.cfl)}: close to the stability limit 1"
         )
     notes += _unused_slab_settings(params, setup, given, name_of)
     return notes
+
+
+def partial_cells(setup: Any, names: Iterable[str]) -> list[tuple[str, float, float]]:
+    """(name, value, the grid's extent) of the setup's extents [m] that are not a whole
+    number of cells of dx (the grid rounds them to the nearest)."""
+    out = []
+    for name in names:
+        v = float(getattr(setup, name))
+        n = max(1, round(v / setup.dx))
+        if abs(n * setup.dx - v) > 1e-6 * v:
+            out.append((name, v, n * setup.dx))
+    return out
 
 
 def _unused_slab_settings(

@@ -41,7 +41,13 @@ from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State, ra
 from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
 from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
 from damjax.params import PSTParams, SlopeSetup
-from damjax.validation import ensure_x64, expect_types, require_x64, slope_problems
+from damjax.validation import (
+    ensure_x64,
+    expect_types,
+    partial_cells,
+    require_x64,
+    slope_problems,
+)
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
 SPEED_WINDOW_M = 4.0  # length of the sliding windows of the peak crack speed [m]
@@ -289,14 +295,11 @@ def _slope_notes(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> list[s
             f"friction_deg = {phi:g}, a released slab does not slide there, so the crack "
             "does not run away from the saw (the paper's mechanism needs slope > friction)"
         )
-    for name in ("length", "width"):
-        v = float(getattr(setup, name))
-        n = max(1, round(v / setup.dx))
-        if abs(n * setup.dx - v) > 1e-6 * v:
-            notes.append(
-                f"{name} = {v:g}: not a whole number of cells of dx = {setup.dx:g}; the "
-                f"area is {n * setup.dx:.6g} m {'long' if name == 'length' else 'wide'}"
-            )
+    for name, v, grid in partial_cells(setup, ("length", "width")):
+        notes.append(
+            f"{name} = {v:g}: not a whole number of cells of dx = {setup.dx:g}; the "
+            f"area is {grid:.6g} m {'long' if name == 'length' else 'wide'}"
+        )
     return notes
 
 
