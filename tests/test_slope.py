@@ -746,3 +746,11 @@ def test_a_strength_map_below_the_slab_weight_is_warned_in_python():
     tau = np.full((32, 16), 1.2)  # kPa given as Pa
     with pytest.warns(UserWarning, match="at or below the gravitational shear .* on 100 %"):
         simulate_slope(PSTParams(), setup, tau_peak=tau)
+
+
+def test_a_fall_line_beyond_90_degrees_is_warned():
+    from damjax.slope.simulation import _slope_notes
+
+    assert _slope_notes(PSTParams(), SlopeSetup(), 35.0, 30.0) == []
+    (note,) = _slope_notes(PSTParams(), SlopeSetup(), 35.0, 120.0)
+    assert note.startswith("fall_deg: the fall line is more than 90 deg from -x")

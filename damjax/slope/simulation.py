@@ -275,7 +275,9 @@ class SlopeRunWarning(UserWarning):
     `simulate_slope` are the scenario loader's to give)."""
 
 
-def _slope_notes(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> list[str]:
+def _slope_notes(
+    params: PSTParams, setup: SlopeSetup, slope_deg: Any, fall_deg: Any = 0.0
+) -> list[str]:
     """Valid but dubious slope inputs: a start at or below the friction angle (a released
     slab does not slide there, so the crack cannot run away from the saw), a length or
     width that is not a whole number of cells (the grid rounds it)."""
@@ -294,6 +296,13 @@ def _slope_notes(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> list[s
             f"slope_deg = {psi_start:.3g} at the start ({x0:g}, {y0:g}) m: at or below "
             f"friction_deg = {phi:g}, a released slab does not slide there, so the crack "
             "does not run away from the saw (the paper's mechanism needs slope > friction)"
+        )
+    # as the scenario loader tests a DEM: over the area, not a ridge's single cells
+    fall = np.radians(np.asarray(fall_deg, dtype=float))
+    if float(np.mean(np.cos(fall) * np.sin(np.radians(psi)))) < 0:
+        notes.append(
+            "fall_deg: the fall line is more than 90 deg from -x over the area, so its x "
+            "axis points down the slope and 'up-slope' results follow x"
         )
     for name, v, grid in partial_cells(setup, ("length", "width")):
         notes.append(
@@ -362,7 +371,10 @@ def simulate_slope(
         slope_deg: local slope angle [deg], scalar or (nx, ny) at cell centres.
         tau_peak: weak-layer strength [Pa], scalar or (nx, ny) at cell centres (e.g. a
             Gaussian random field from `damjax.fields`).
-        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
+        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny):
+            the slope descends along (-cos, -sin)(fall_deg), so a positive angle turns
+            the fall line from -x towards -y; beyond +-90 deg (over the area) x no longer
+            points up-slope (warned).
         progress: tqdm progress bar.
         state: resume from this saved state (with ``start_chunk`` and ``history``).
         start_chunk: number of chunks run before ``state``.
@@ -393,7 +405,7 @@ def simulate_slope(
     problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
     if problems:
         raise ValueError("\n".join(problems))
-    for note in _slope_notes(params, setup, slope_deg):
+    for note in _slope_notes(params, setup, slope_deg, fall_deg):
         warnings.warn(note, SlopeRunWarning, stacklevel=2)
     # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
     psi = np.radians(np.asarray(slope_deg, dtype=float))
