@@ -142,6 +142,14 @@ def _traced(params: PSTParams) -> bool:
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(params))
 
 
+def _checked(dt: Any, checks: list[tuple[Any, str]]) -> Any:
+    """``dt`` with a runtime error per (bad, message) check (`eqx.error_if` on dt: always
+    used, so never pruned)."""
+    for bad, message in checks:
+        dt = eqx.error_if(dt, bad, message)
+    return dt
+
+
 def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any) -> Any:
     """dt, with runtime errors (`eqx.error_if`, on dt: always used, so never pruned) for
     traced parameters that the layout does not fit: a finite tensile strength on an
@@ -149,8 +157,7 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
     blow up into NaN), and traced values outside their valid ranges
     (`damjax.validation.traced_param_checks`: NaN, a negative strength gradient, ...).
     Concrete parameters are checked before tracing (`check_layout`, `validate`)."""
-    for bad, message in traced_param_checks(params):
-        dt = eqx.error_if(dt, bad, message)
+    dt = _checked(dt, traced_param_checks(params))
     if elastic_guard is not None:
         dt = eqx.error_if(
             dt,
@@ -490,12 +497,9 @@ def build_slope(
     psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
     fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
     tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
-    # traced values outside their ranges stop the run (on dt: always used, never pruned)
-    dt = f(setup.duration / layout.n_steps)
-    checks = traced_param_checks(params)
-    checks += traced_map_checks(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
-    for bad, message in checks:
-        dt = eqx.error_if(dt, bad, message)
+    # traced values outside their ranges stop the run
+    maps = traced_map_checks(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
+    dt = _checked(f(setup.duration / layout.n_steps), traced_param_checks(params) + maps)
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)

@@ -197,12 +197,11 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
         if key is not None and d.attrs.get("key") != key:
             raise ValueError(f"{p}: a slice of another ensemble (key {d.attrs.get('key')})")
         d = d.sel(member=slice(a, min(b, members) - 1))
-        new = [int(m) for m in d["member"].values if int(m) not in seen]
-        if not new:
+        keep = [i for i, m in enumerate(d["member"].values) if int(m) not in seen]
+        if not keep:
             continue
-        seen.update(new)
+        seen.update(int(m) for m in d["member"].values[keep])
         summ = json.loads(d.attrs["summaries"])
-        keep = [i for i, m in enumerate(d["member"].values) if int(m) in new]
         d = d.isel(member=keep)
         d.attrs["summaries"] = io.to_json([summ[i] for i in keep])
         parts.append(d)

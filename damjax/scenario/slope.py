@@ -99,6 +99,7 @@ from damjax.scenario.schema import (
 )
 from damjax.scenario.slope_fields import _GENERIC_DEFAULTS, _FieldProblem, resolve_fields
 from damjax.slope.generic import window_problem
+from damjax.slope.simulation import overloaded_fraction
 from damjax.validation import MIN_CELLS, SETUP_CHOICES, SETUP_RULES, must_text, param_problems
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
@@ -506,7 +507,7 @@ def check(
             f"{np.nanmax(slope):.3g} deg: must all be in (0, 90) deg"
         )
         return None, []
-    frac = _overloaded_fraction(params, slope, tau)
+    frac = overloaded_fraction(params, slope, tau)
     if frac > 0 and not (terrain is not None and "release" in terrain):
         # (on a polygon's rectangle the terrain decides it: warn_resolution warns)
         notes.append(
@@ -522,12 +523,6 @@ def check(
     return scn, notes
 
 
-def _overloaded_fraction(params: Any, slope: Any, tau: np.ndarray) -> float:
-    """Share of the cells where tau_p <= rho g h sin(psi) (failing under the slab)."""
-    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(np.radians(slope))
-    return float(np.mean(tau <= tau_g))
-
-
 def warn_resolution(scn: Any) -> None:
     """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5; for a
     ``terrain.release`` scenario also when the weak layer fails under the slab's weight
@@ -536,7 +531,7 @@ def warn_resolution(scn: Any) -> None:
         from damjax.scenario.slope_fields import resolve_fields
 
         slope, _, tau, _ = resolve_fields(scn)
-        frac = _overloaded_fraction(scn.params, slope, tau)
+        frac = overloaded_fraction(scn.params, slope, tau)
         if frac > 0:
             warnings.warn(
                 f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "

@@ -312,6 +312,14 @@ def _slope_notes(
     return notes
 
 
+def overloaded_fraction(params: PSTParams, slope_deg: Any, tau_peak: Any) -> float:
+    """Share of the cells where tau_p <= rho g h sin(psi): the weak layer fails there
+    under the slab's weight (scalars or (nx, ny) maps, broadcast)."""
+    psi = np.radians(np.asarray(slope_deg, dtype=float))
+    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(psi)
+    return float(np.mean(np.asarray(tau_peak, dtype=float) <= tau_g))
+
+
 def _ratio_or_none(v: float, cs: float) -> float | None:
     return v / cs if math.isfinite(v) else None
 
@@ -408,16 +416,11 @@ def simulate_slope(
     for note in _slope_notes(params, setup, slope_deg, fall_deg):
         warnings.warn(note, SlopeRunWarning, stacklevel=2)
     # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
-    psi = np.radians(np.asarray(slope_deg, dtype=float))
-    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(psi)
-    weak = np.broadcast_to(
-        np.asarray(tau_peak, dtype=float) <= tau_g,
-        np.broadcast_shapes(np.shape(tau_peak), np.shape(psi)),
-    )
-    if np.any(weak):
+    frac = overloaded_fraction(params, slope_deg, tau_peak)
+    if frac > 0:
         warnings.warn(
             f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
-            f"{100 * float(np.mean(weak)):.3g} % of the area: the weak layer fails there "
+            f"{100 * frac:.3g} % of the area: the weak layer fails there "
             "under the slab's weight at once (a strength map in kPa instead of Pa?)",
             stacklevel=2,
         )
