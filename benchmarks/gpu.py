@@ -36,6 +36,10 @@ prints one line with ``error``. The parts:
   and the 32-member ensemble, each timed over a window of steps and extrapolated to the
   14 100 steps (``DAMJAX_SLOPE_WINDOW``; ``python -m benchmarks slope_large`` alone runs
   every step on a GPU);
+- ``real_path``: one member of the shipped scenario ``real-path-avakot`` (AvaFrame's
+  documented avaKot release on its DEM, 1.9e5 particles, 3 s), every step timed: built from
+  the scenario (needs the ``geo`` extra) or loaded from the member that ``--prepare`` built
+  (``DIR/real_path_avakot.pkl.gz``, for a machine without the GIS packages);
 - ``mpm88``: `benchmarks.mpm88`'s rows (3 to 200 particles per cell and the 2 x 2
   lattice) with Taichi on the same backend as the peer where taichi is importable;
 - ``tests``: pytest on the GPU-relevant test files (``-x -q``, several workers with
@@ -490,9 +494,113 @@ def part_slope_large(sizes: Sizes) -> None:
 
     # a window of 800 steps of the 14 100 on a GPU: one run ~2 s on an H200, a slice of 8
     # members ~15 s (from 0.59 ns per particle-step), against ~35 s and ~5 min for every step
-    _throughput_env(sizes, DAMJAX_SLOPE_EXTRAPOLATE="1", DAMJAX_SLOPE_WINDOW="4x200")
+    # the ensemble of 16 members: two slices of up to 8 on one GPU
+    _throughput_env(
+        sizes,
+        DAMJAX_SLOPE_EXTRAPOLATE="1",
+        DAMJAX_SLOPE_WINDOW="4x200",
+        DAMJAX_SLOPE_MEMBERS="16",
+    )
     for row in throughput.slope_large_rows():
         _emit(**row)
+
+
+REAL_PATH = "avaKot"
+REAL_PATH_FILE = "real_path_avakot.pkl.gz"  # in the --prepare folder
+
+
+def real_path_member(dry: bool = False) -> dict:
+    """Member 0 of the shipped scenario of `REAL_PATH` (``dry``: `benchmarks.real_path`'s
+    toy version), built on this machine with ``accumulation = "fixed"`` (what "auto" picks
+    on a GPU; "auto" would resolve to this machine's backend when the model is built): the
+    model and state as NumPy trees, the chunk layout, and the build time [s]."""
+    import warnings
+
+    import jax
+    import numpy as np
+
+    from benchmarks import real_path
+    from damjax import scenario
+    from damjax.ensemble import batch as eb
+    from damjax.ensemble.spec import from_scenario
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if dry:
+            scn = real_path.toy_scenario(REAL_PATH, Path(tempfile.mkdtemp(prefix="toy-path-")))
+        else:
+            scn = scenario.load(real_path.scenario_name(REAL_PATH))
+        scn = dataclasses.replace(scn, setup=dataclasses.replace(scn.setup, accumulation="fixed"))
+        ens = from_scenario(scn, members=1)
+        layout = eb.shared_layout(ens)
+        models, states, _ = eb._build_members(ens, [0], layout)
+    model, state = jax.tree.map(lambda a: np.asarray(a[0]), (models, states))
+    return dict(
+        scenario=scn.name,
+        dx=scn.setup.dx,
+        duration_s=scn.setup.duration,
+        chunk_steps=layout.chunk_steps,
+        n_chunks=layout.n_chunks,
+        n_steps=layout.n_steps,
+        model=model,
+        state=state,
+        build_time_s=round(time.perf_counter() - t0, 3),
+    )
+
+
+def part_real_path(sizes: Sizes) -> None:
+    """One member of the real path, every chunk timed after an ahead-of-time compile."""
+    import gzip
+    import pickle
+
+    import jax
+    import numpy as np
+
+    from damjax.core.loop import compile_chunk, peak_bytes
+
+    # DAMJAX_REAL_PATH_MEMBER: a member file of --prepare's (also on a --dry-run)
+    given = os.environ.get("DAMJAX_REAL_PATH_MEMBER")
+    carried = Path(given or ROOT / ".gpu-carry" / REAL_PATH_FILE)
+    if given and not carried.is_file():
+        raise FileNotFoundError(f"DAMJAX_REAL_PATH_MEMBER = {given!r}: no such file")
+    if carried.is_file() and (given or not sizes.dry):
+        with gzip.open(carried, "rb") as fh:
+            member = pickle.load(fh)
+        source = f"built by --prepare ({Path(carried).name})"
+    else:
+        member = real_path_member(sizes.dry)
+        source = "built here"
+    model, state = jax.tree.map(jax.numpy.asarray, (member["model"], member["state"]))
+    n_particles = int(np.shape(state.opening)[-1])
+    exe, compile_s = compile_chunk(model, state, member["chunk_steps"])
+    t0 = time.perf_counter()
+    for _ in range(member["n_chunks"]):
+        out = exe(model, state)
+        state = out[0] if isinstance(out, tuple) else out
+    jax.block_until_ready(state)
+    wall = time.perf_counter() - t0
+    broken = np.isfinite(np.asarray(state.t_broken))
+    _emit(
+        case="real_path_member",
+        path=REAL_PATH,
+        scenario=member["scenario"],
+        member_source=source,
+        accumulation="fixed",
+        dx=member["dx"],
+        duration_s=member["duration_s"],
+        n_particles=n_particles,
+        n_steps=member["n_steps"],
+        build_time_s=member["build_time_s"],
+        compile_time_s=round(compile_s, 3),
+        wall_time_s=round(wall, 3),
+        us_per_step=round(1e6 * wall / member["n_steps"], 2),
+        particle_steps_per_s=round(n_particles * member["n_steps"] / wall),
+        peak_mib=None if peak_bytes(exe) is None else round(peak_bytes(exe) / 2**20, 1),
+        released_area_m2=round(float(broken.sum()) * member["dx"] ** 2, 1),
+        fault=int(np.asarray(state.fault)),
+        time_s=float(np.asarray(state.time)),
+    )
 
 
 def part_mpm88(sizes: Sizes) -> None:
@@ -517,13 +625,22 @@ PARTS: dict[str, Callable[[Sizes], None]] = {
     "pst_f32_old": part_pst_f32_old,
     "sweep256": part_sweep256,
     "slope_large": part_slope_large,
+    "real_path": part_real_path,
     "mpm88": part_mpm88,
     "tests": None,  # type: ignore[dict-item] # runs pytest from the parent (see _run_tests)
 }
 # --parts takes these names for their lists: the throughput and transfer figures, and the
 # correctness checks; each fits one 10-minute command on one H100/H200
 GROUPS: dict[str, tuple[str, ...]] = {
-    "acceptance": ("environment", "pst_f32_old", "pst_grad", "sweep256", "slope_large", "mpm88"),
+    "acceptance": (
+        "environment",
+        "pst_f32_old",
+        "pst_grad",
+        "sweep256",
+        "slope_large",
+        "real_path",
+        "mpm88",
+    ),
     "checks": (
         "environment",
         "pst_f32",
@@ -545,6 +662,7 @@ PART_TIMEOUT = {
     "slope_1m": 120.0,
     "pst_f32_old": 180.0,  # four baseline PSTs in their own processes, four compilations
     "sweep256": 240.0,  # 256 PSTs of 40 000 steps: a few seconds at 50 x, 5 min at 1 x
+    "real_path": 90.0,  # one build (if not carried), one compilation, 1 800 steps
     "slope_large": 150.0,  # builds of 4 M-particle members, two compilations, two windows
     "mpm88": 150.0,  # five sizes, damjax twice and Taichi each
 }
@@ -813,7 +931,8 @@ WHEEL_PLATFORMS = ("manylinux_2_27_x86_64", "manylinux_2_17_x86_64", "manylinux2
 
 def prepare(folder: Path, commit: str | None = None, python_version: str = "3.12") -> int:
     """Write ``folder/old`` (damjax/, benchmarks/ and pyproject.toml of the older commit,
-    with a ``COMMIT`` file) and ``folder/whl`` (`WHEELS` for ``python_version``), then print
+    with a ``COMMIT`` file), ``folder/whl`` (`WHEELS` for ``python_version``) and
+    ``folder/real_path_avakot.pkl.gz`` (`real_path_member`, needs the ``geo`` extra), then print
     the commands that run the figures on a machine whose checkout has ``folder`` in it."""
     commit = commit or os.environ.get("DAMJAX_OLD_COMMIT", OLD_COMMIT)
     old, whl = folder / "old", folder / "whl"
@@ -838,6 +957,14 @@ def prepare(folder: Path, commit: str | None = None, python_version: str = "3.12
     if subprocess.run([*cmd, *WHEELS]).returncode != 0:
         sys.stderr.write("pip download failed; the older code is in place, the wheels are not\n")
         return 1
+    # the real-path member, built here: the GPU machine may lack the GIS packages that read
+    # its DEM and polygon
+    import gzip
+    import pickle
+
+    member = real_path_member()
+    with gzip.open(folder / REAL_PATH_FILE, "wb", compresslevel=6) as fh:
+        pickle.dump(member, fh, protocol=pickle.HIGHEST_PROTOCOL)
     rel = os.path.relpath(folder.resolve(), ROOT)
     if rel.startswith(".."):
         sys.stderr.write(
@@ -870,7 +997,8 @@ def main(argv: list[str] | None = None) -> int:
         metavar="DIR",
         default=None,
         help="write what a bare GPU machine needs into DIR (old/: the older code; whl/: "
-        "taichi, h5netcdf and dill wheels for Python 3.12) and print the command to run there",
+        "taichi, h5netcdf and dill wheels for Python 3.12; real_path_avakot.pkl.gz: the "
+        "real-path member) and print the command to run there",
     )
     p.add_argument(
         "--timeout",

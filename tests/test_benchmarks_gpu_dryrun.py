@@ -69,6 +69,8 @@ def test_gpu_dry_run_prints_one_valid_line_per_part():
     single, ens = by_part["slope_large"]
     assert single["extrapolated"] is True and ens["slices_timed"] == 1
     assert ens["wall_time_s"] > 0 and ens["slices"] * ens["slice_size"] >= ens["members"]
+    (path,) = by_part["real_path"]
+    assert path["n_steps"] > 0 and path["particle_steps_per_s"] > 0 and path["fault"] == 0
     (m88,) = by_part["mpm88"]
     assert m88["particle_steps_per_s"] > 0 and m88["particles_per_cell"] > 0
     (tests,) = by_part["tests"]
