@@ -4,9 +4,11 @@ Every process runs the same program. `initialize` connects it to the others thro
 coordinator (process 0's address); each process then drives only its own devices
 (`jax.local_devices()`) and takes its share of the work items (`share`: item ``i`` goes
 to process ``i % process_count``). Results meet either on a shared file system (the
-ensemble's slice files, `damjax.ensemble`) or through `allgather_objects` (JAX's
-collectives: gloo between CPU processes, NCCL between GPUs), and `barrier` lines the
-processes up.
+ensemble's slice files, `damjax.ensemble`) or through `allgather_objects`, and `barrier`
+lines the processes up. Both go through the coordinator's key-value store and barriers
+(host memory and TCP), not through device collectives: NCCL refuses two ranks on one GPU,
+so device collectives would fail for several processes sharing one GPU, and a host-side
+exchange of pickled results gains nothing from them.
 
 Start the processes
 
@@ -102,26 +104,71 @@ def share(items: Sequence[Any], index: int | None = None, count: int | None = No
     return list(items)[index::count]
 
 
+# how long a process waits for the others at a barrier or a gather [ms]: the work between
+# two meetings (a slice of members, a process's share of a sweep) may take hours; a
+# process that dies stops the others through the coordinator's heartbeat well before
+TIMEOUT_MS = 24 * 3600 * 1000
+# every process makes the same calls in the same order (SPMD), so a counter per kind of
+# call gives the keys and barrier ids that the processes share, each used once
+_CALLS = {"barrier": 0, "gather": 0}
+
+
+def _client() -> Any:
+    """The coordination-service client of `jax.distributed` (None before `initialize`)."""
+    from jax._src import distributed as jax_distributed
+
+    return jax_distributed.global_state.client
+
+
+def _next(kind: str) -> int:
+    _CALLS[kind] += 1
+    return _CALLS[kind]
+
+
 def barrier(name: str) -> None:
     """Wait until every process reaches the barrier of this name (no-op on one)."""
-    if process_count() > 1:
+    if process_count() == 1:
+        return
+    client = _client()
+    if client is None:  # pragma: no cover - several processes without jax.distributed
         from jax.experimental import multihost_utils
 
         multihost_utils.sync_global_devices(name)
+        return
+    client.wait_at_barrier(f"damjax/{name}/{_next('barrier')}", TIMEOUT_MS)
 
 
 def allgather_objects(obj: Any) -> list[Any]:
-    """Every process's ``obj`` (picklable), in process order, on every process."""
-    if process_count() == 1:
-        return [obj]
-    from jax.experimental import multihost_utils
+    """Every process's ``obj`` (picklable), in process order, on every process.
 
-    data = np.frombuffer(pickle.dumps(obj), dtype=np.uint8)
-    sizes = np.asarray(multihost_utils.process_allgather(np.array([data.size], np.int64)))
-    buf = np.zeros(int(sizes.max()), np.uint8)
-    buf[: data.size] = data
-    allbuf = np.asarray(multihost_utils.process_allgather(buf))
-    return [pickle.loads(allbuf[i, : int(sizes[i, 0])].tobytes()) for i in range(sizes.shape[0])]
+    Each process puts its pickled ``obj`` in the coordinator's key-value store and reads
+    the others'; a barrier then lets each delete its own entry."""
+    count = process_count()
+    if count == 1:
+        return [obj]
+    client = _client()
+    if client is None:  # pragma: no cover - several processes without jax.distributed
+        from jax.experimental import multihost_utils
+
+        data = np.frombuffer(pickle.dumps(obj), dtype=np.uint8)
+        sizes = np.asarray(multihost_utils.process_allgather(np.array([data.size], np.int64)))
+        buf = np.zeros(int(sizes.max()), np.uint8)
+        buf[: data.size] = data
+        allbuf = np.asarray(multihost_utils.process_allgather(buf))
+        return [pickle.loads(allbuf[i, : int(sizes[i, 0])].tobytes()) for i in range(count)]
+    call = _next("gather")
+    key = f"damjax/allgather/{call}/"
+    me = process_index()
+    client.key_value_set_bytes(key + str(me), pickle.dumps(obj))
+    out = [
+        obj
+        if i == me
+        else pickle.loads(client.blocking_key_value_get_bytes(key + str(i), TIMEOUT_MS))
+        for i in range(count)
+    ]
+    client.wait_at_barrier(f"damjax/allgather-read/{call}", TIMEOUT_MS)
+    client.key_value_delete(key + str(me))
+    return out
 
 
 def sweep(params_batch: Any, setup: Any = None, **kwargs: Any) -> list[Any]:

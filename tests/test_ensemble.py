@@ -338,8 +338,10 @@ PST_SETUP = {"length": 8.0, "dx": 0.04, "duration": 0.5, "chunk_steps": 500}
 
 
 def test_two_processes_give_the_one_process_results(full_run, tiny, tmp_path):
-    """One two-process job (jax.distributed on localhost, CPU): the slope ensemble through
-    the command line (``--coordinator``) and then a PST sweep (`distributed.sweep`)."""
+    """One two-process job (jax.distributed on localhost, on the test's device): the slope
+    ensemble through the command line (``--coordinator``) and then a PST sweep
+    (`distributed.sweep`). The processes meet through the coordinator only: JAX's device
+    collectives are switched off in them (NCCL refuses two processes on one GPU)."""
     import damjax
 
     _, out, _ = full_run
@@ -351,6 +353,13 @@ def test_two_processes_give_the_one_process_results(full_run, tiny, tmp_path):
         import damjax
         from damjax import distributed
         from damjax.ensemble import main
+        from jax.experimental import multihost_utils
+
+        def no_device_collectives(*args, **kwargs):
+            raise RuntimeError("a device collective was called")
+
+        multihost_utils.process_allgather = no_device_collectives
+        multihost_utils.sync_global_devices = no_device_collectives
         rc = main([{str(tiny)!r}, "--out", {str(two)!r}, "--json", "--quiet",
                    "--coordinator", "127.0.0.1:" + os.environ["DAMJAX_TEST_PORT"],
                    "--num-processes", "2", "--process-id", os.environ["DAMJAX_TEST_PID"]])
