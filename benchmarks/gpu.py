@@ -4,7 +4,7 @@
     python -m benchmarks gpu --dry-run          # every part at toy size (CI; any device)
     python -m benchmarks gpu --no-tests         # the figures only
     python -m benchmarks gpu --parts pst_f32,repeat --timeout 300
-    python -m benchmarks gpu --parts acceptance # the throughput figures (about 7 min)
+    python -m benchmarks gpu --parts acceptance # the throughput figures (about 4 min)
     python -m benchmarks gpu --parts checks     # the rest: tests, determinism, gradients
     python -m benchmarks.gpu --prepare DIR      # the old tree and wheels for a bare machine
 
@@ -33,7 +33,7 @@ prints one line with ``error``. The parts:
 - ``sweep256``: `benchmarks.throughput`'s 256 baseline PSTs through `damjax.sweep`
   against one PST at a time;
 - ``slope_large``: `benchmarks.throughput`'s 200 m x 200 m slope (4 M particles), one run
-  and the 32-member ensemble, each timed over a window of steps and extrapolated to the
+  and a 16-member ensemble, each timed over a window of steps and extrapolated to the
   14 100 steps (``DAMJAX_SLOPE_WINDOW``; ``python -m benchmarks slope_large`` alone runs
   every step on a GPU);
 - ``real_path``: one member of the shipped scenario ``real-path-avakot`` (AvaFrame's
@@ -42,8 +42,8 @@ prints one line with ``error``. The parts:
   (``DIR/real_path_avakot.pkl.gz``, for a machine without the GIS packages);
 - ``mpm88``: `benchmarks.mpm88`'s rows (3 to 200 particles per cell and the 2 x 2
   lattice) with Taichi on the same backend as the peer where taichi is importable;
-- ``tests``: pytest on the GPU-relevant test files (``-x -q``, several workers with
-  ``XLA_PYTHON_CLIENT_PREALLOCATE=false``).
+- ``tests``: pytest on the GPU-relevant test files (every test, ``-v -rfE``, several
+  workers with ``XLA_PYTHON_CLIENT_PREALLOCATE=false``; ``--log DIR`` keeps the output).
 """
 
 from __future__ import annotations
@@ -638,7 +638,6 @@ GROUPS: dict[str, tuple[str, ...]] = {
         "pst_grad",
         "sweep256",
         "slope_large",
-        "real_path",
         "mpm88",
     ),
     "checks": (
@@ -650,6 +649,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
         "accumulation",
         "ensemble16",
         "slope_1m",
+        "real_path",
         "tests",
     ),
 }
@@ -662,7 +662,7 @@ PART_TIMEOUT = {
     "slope_1m": 120.0,
     "pst_f32_old": 180.0,  # four baseline PSTs in their own processes, four compilations
     "sweep256": 240.0,  # 256 PSTs of 40 000 steps: a few seconds at 50 x, 5 min at 1 x
-    "real_path": 90.0,  # one build (if not carried), one compilation, 1 800 steps
+    "real_path": 90.0,  # one build (if not carried), one compilation, 2 200 steps
     "slope_large": 150.0,  # builds of 4 M-particle members, two compilations, two windows
     "mpm88": 150.0,  # five sizes, damjax twice and Taichi each
 }
@@ -685,6 +685,10 @@ def _meta_fallback() -> dict:
 
 
 def _git_commit() -> str | None:
+    # DAMJAX_COMMIT, where given, names the code that runs: a borrowed machine's copy may
+    # carry a git directory that does not match its working tree
+    if os.environ.get("DAMJAX_COMMIT"):
+        return os.environ["DAMJAX_COMMIT"]
     try:
         res = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"],
@@ -696,8 +700,7 @@ def _git_commit() -> str | None:
         commit = res.stdout.strip()
     except (OSError, subprocess.SubprocessError):
         commit = ""
-    # a copy without git history (a borrowed machine): the commit --prepare printed
-    return commit or os.environ.get("DAMJAX_COMMIT") or None
+    return commit or None
 
 
 def _child_meta() -> dict:
@@ -775,9 +778,16 @@ def _run_child(name: str, dry: bool, timeout: float) -> tuple[list[dict], dict, 
     return rows, meta, None
 
 
-def _run_tests(dry: bool, workers: int, timeout: float) -> dict:
-    """pytest on the GPU-relevant files (several workers share one GPU: no preallocation)."""
-    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider"]
+def _run_tests(dry: bool, workers: int, timeout: float, log_dir: Path | None = None) -> dict:
+    """pytest on the GPU-relevant files (several workers share one GPU: no preallocation).
+
+    Every test runs (no ``-x``: one run names every failure); ``-v`` names a failure as it
+    happens, so a run cut at ``timeout`` still says which failed, and ``-rfE`` puts each
+    failure's message in the summary. pytest-benchmark (on some GPU images) is switched
+    off: under xdist it warns once per worker and buries the summary. ``log_dir``: the
+    whole output goes to ``log_dir/pytest.log``."""
+    cmd = [sys.executable, "-m", "pytest", "-v", "-rfE", "--tb=short", "--durations=15"]
+    cmd += ["-p", "no:cacheprovider", "-p", "no:benchmark"]
     if dry:
         cmd += ["-p", "no:xdist", *DRY_TESTS]
     else:
@@ -791,6 +801,9 @@ def _run_tests(dry: bool, workers: int, timeout: float) -> dict:
     out = stdout + stderr
     wall = time.perf_counter() - t0
     # the counts of pytest's last summary line ("3 failed, 170 passed, 6 skipped in 250s")
+    if log_dir is not None:
+        log_dir.mkdir(parents=True, exist_ok=True)
+        (log_dir / "pytest.log").write_text(out)
     summary = [ln for ln in out.splitlines() if re.search(r"\d+ (passed|failed|error)", ln)]
     counts = {
         k: int(n)
@@ -809,8 +822,11 @@ def _run_tests(dry: bool, workers: int, timeout: float) -> dict:
         wall_time_s=round(wall, 1),
     )
     if rc != 0:
-        failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", out, flags=re.M)
-        row["failed_tests"] = failed
+        # "[gw3] [ 69%] FAILED tests/...::name" as it happens, "FAILED tests/...::name -
+        # message" in the summary
+        failed = re.findall(r"(?:^|\] )(?:FAILED|ERROR) (tests/\S+)", out, flags=re.M)
+        row["failed_tests"] = list(dict.fromkeys(failed))
+        row["failure_messages"] = re.findall(r"^(?:FAILED|ERROR) tests/\S+ - .*$", out, flags=re.M)
         row["output_tail"] = out[-3000:]
         if rc is None:
             row["error"] = f"timed out after {timeout:.0f} s"
@@ -824,7 +840,8 @@ def _default_workers() -> int:
         import xdist  # noqa: F401
     except ImportError:
         return 0
-    return max(1, min(8, (os.cpu_count() or 2) // 2))
+    # the tests are compile-bound: 15 workers on 16 cores ran them in ~220 s on an H100
+    return max(1, min(15, (os.cpu_count() or 2) - 1))
 
 
 def run(
@@ -835,9 +852,10 @@ def run(
     workers: int,
     jobs: int = 1,
     print_row: Callable[[dict], None] | None = None,
+    log_dir: Path | None = None,
 ) -> list[dict]:
     """Run the parts within ``timeout`` seconds in all, ``jobs`` at a time; one or more
-    rows each."""
+    rows each. ``log_dir``: where the tests part writes pytest's whole output."""
     print_row = print_row or (lambda r: print(json.dumps(r), flush=True))
     common = dict(
         date=datetime.date.today().isoformat(),
@@ -859,14 +877,28 @@ def run(
             )
         if jobs <= 1:
             for name in parts:
-                rows += _run_part(name, dry, timeout, deadline, workers, meta, common, print_row)
+                rows += _run_part(
+                    name, dry, timeout, deadline, workers, meta, common, print_row, log_dir
+                )
             return rows
+        # parts side by side on one accelerator: none may take 75 % of its memory up front
+        # (a part that did made the tests beside it fail on an H100, 2026-11-27)
+        stack.enter_context(_environ(XLA_PYTHON_CLIENT_PREALLOCATE="false"))
         # several parts at once (--dry-run: toy sizes are compile-bound, one part per core);
         # rows are printed in the order of the parts
         with ThreadPoolExecutor(max_workers=jobs) as pool:
             futures = [
                 pool.submit(
-                    _run_part, name, dry, timeout, deadline, workers, meta, common, lambda r: None
+                    _run_part,
+                    name,
+                    dry,
+                    timeout,
+                    deadline,
+                    workers,
+                    meta,
+                    common,
+                    lambda r: None,
+                    log_dir,
                 )
                 for name in parts
             ]
@@ -900,6 +932,7 @@ def _run_part(
     meta: dict,
     common: dict,
     print_row: Callable[[dict], None],
+    log_dir: Path | None = None,
 ) -> list[dict]:
     """One part's rows (its error as a row); ``meta`` is updated from the child."""
     rows: list[dict] = []
@@ -908,7 +941,7 @@ def _run_part(
     if left < 5.0:
         got = [dict(case=name, error=f"not run: the --timeout of {timeout:.0f} s is spent")]
     elif name == "tests":
-        got = [_run_tests(dry, workers, left)]
+        got = [_run_tests(dry, workers, left, log_dir)]
     else:
         limit = left if dry else min(left, PART_TIMEOUT.get(name, 90.0))
         got, child_meta, error = _run_child(name, dry, limit)
@@ -1009,6 +1042,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--workers", type=int, default=None, help="pytest-xdist workers")
     p.add_argument(
+        "--log",
+        metavar="DIR",
+        default=None,
+        help="write pytest's whole output (the tests part) to DIR/pytest.log",
+    )
+    p.add_argument(
         "--jobs",
         type=int,
         default=None,
@@ -1036,7 +1075,8 @@ def main(argv: list[str] | None = None) -> int:
     timeout = ns.timeout if ns.timeout is not None else (300.0 if ns.dry_run else 480.0)
     workers = _default_workers() if ns.workers is None else ns.workers
     jobs = ns.jobs if ns.jobs is not None else (2 if ns.dry_run else 1)
-    rows = run(parts, dry=ns.dry_run, timeout=timeout, workers=workers, jobs=jobs)
+    log_dir = None if ns.log is None else Path(ns.log)
+    rows = run(parts, dry=ns.dry_run, timeout=timeout, workers=workers, jobs=jobs, log_dir=log_dir)
     return 1 if any("error" in r for r in rows) else 0
 
 

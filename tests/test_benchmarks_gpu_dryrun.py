@@ -89,3 +89,30 @@ def test_a_failing_part_is_a_line_and_the_rest_still_run(monkeypatch):
     # a spent time budget: the part is reported as not run
     rows = gpu.run(["pst_f32"], dry=True, timeout=0, workers=0, print_row=printed.append)
     assert rows[0]["error"].startswith("not run")
+
+
+def test_tests_part_names_each_failure_and_keeps_the_log(monkeypatch, tmp_path):
+    # a run cut at its limit names what failed so far ("-v" lines); a finished one adds
+    # each failure's message from the summary; the whole output lands in the log
+    from benchmarks import gpu
+
+    cut = (
+        "[gw7] [ 69%] FAILED tests/test_ensemble.py::test_two \n"
+        "[gw6] [ 92%] PASSED tests/test_mcc.py::test_a \n"
+    )
+    monkeypatch.setattr(gpu, "_run_group", lambda cmd, env, timeout: (cut, "", None))
+    row = gpu._run_tests(False, 4, 10.0, tmp_path)
+    assert row["failed_tests"] == ["tests/test_ensemble.py::test_two"]
+    assert row["error"].startswith("timed out") and (tmp_path / "pytest.log").read_text() == cut
+    done = cut + (
+        "FAILED tests/test_ensemble.py::test_two - RuntimeError: boom\n"
+        "=== 1 failed, 1 passed in 3.0s ===\n"
+    )
+    monkeypatch.setattr(gpu, "_run_group", lambda cmd, env, timeout: (done, "", 1))
+    row = gpu._run_tests(False, 4, 10.0)
+    assert row["failed_tests"] == ["tests/test_ensemble.py::test_two"]
+    assert row["failure_messages"] == [
+        "FAILED tests/test_ensemble.py::test_two - RuntimeError: boom"
+    ]
+    assert (row["failed"], row["passed"]) == (1, 1)
+    assert "-x" not in row["command"].split()
