@@ -745,3 +745,68 @@ def slope_problems(
         elif np.any(a <= lo) or np.any(a >= hi):
             out.append(f"{name} field: values must be in ({lo}, {hi})")
     return out
+
+
+# --------------------------------------------------------------------------- snow cover
+# The snow-cover and weak-layer-load inputs of a slope run (`damjax.simulate_slope`'s
+# thickness, cover, stability, wl_friction and domain maps; 2026-11-27), kept together so
+# that they can join the parameter table: name, valid range, unit.
+SNOW_MAP_RULES: dict[str, tuple[Any, str]] = {
+    "thickness": (lambda a: np.isfinite(a) & (a > 0), "(0, inf) m"),
+    "stability": (lambda a: np.isfinite(a) & (a > 0), "(0, inf)"),
+    "wl_friction": (lambda a: np.isfinite(a) & (a >= 0), "[0, inf)"),
+}
+
+
+def snow_problems(
+    setup: SlopeSetup,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
+) -> list[str]:
+    """One line per invalid snow-cover input of a slope run: ``thickness`` [m] and
+    ``stability`` [-] (maps (nx, ny) at the cell centres, or scalars), ``wl_friction``
+    [-], and the bool maps ``cover`` and ``domain``."""
+    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
+    out = []
+    for name, m in (("cover", cover), ("domain", domain)):
+        if m is None:
+            continue
+        a = np.asarray(m)
+        if a.shape != cells or a.dtype != bool:
+            out.append(
+                f"{name}: must be a bool map (nx, ny) = {cells}, the cells of length "
+                f"{setup.length} m x width {setup.width} m at dx {setup.dx} m (got "
+                f"{a.dtype} {a.shape})"
+            )
+        elif name == "cover" and not a.any():
+            out.append("cover: no snow-covered cell (every cell is False)")
+    for name, m in (
+        ("thickness", thickness),
+        ("stability", stability),
+        ("wl_friction", wl_friction),
+    ):
+        if m is None:
+            continue
+        ok, valid = SNOW_MAP_RULES[name]
+        try:
+            a = np.asarray(m, dtype=float)
+        except (TypeError, ValueError):
+            out.append(f"{name}: must be a number or a map (nx, ny) of numbers")
+            continue
+        if a.ndim == 2 and a.shape != cells:
+            out.append(f"{name} field: shape {a.shape} must be (nx, ny) = {cells}")
+            continue
+        if a.ndim not in (0, 2):
+            out.append(f"{name}: must be a scalar or a 2D array (nx, ny)")
+            continue
+        bad = ~np.asarray(ok(a))
+        if np.any(bad):
+            first = float(a[bad].ravel()[0])
+            out.append(
+                f"{name} field: {first!r}: must be in {valid} on every cell (cells without "
+                "snow too: particles near them interpolate; fill them, e.g. from a neighbour)"
+            )
+    return out

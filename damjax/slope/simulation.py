@@ -47,6 +47,7 @@ from damjax.validation import (
     partial_cells,
     require_x64,
     slope_problems,
+    snow_problems,
 )
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
@@ -80,9 +81,17 @@ class SlopeResult:
             ``upslope_arrest_distance_m``, ``wall_time_s``, ...). ``release_area_m2``
             counts every failed cell, the saw's cut included (``sawn_area_m2``); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
-            release is the cut (a warning says so).
+            release is the cut (a warning says so). ``initial_failure_area_m2``: the
+            weak layer failing under the slab's own weight at t = 0 (tau_p <= rho g h0
+            sin psi); ``outflow_particles`` / ``outflow_area_m2``: slab that slid out over
+            the grid's edge (it leaves the run); ``domain_edge_fraction``: the share of the
+            released area's boundary on the domain's edge (a warning above
+            `DOMAIN_EDGE_WARN`); ``snow_area_m2``: the snow-covered area.
         setup: the `SlopeSetup` that was run.
         params: the `PSTParams` that were run.
+        thickness: (nx, ny) initial slab thickness h0 normal to the slope [m] (0 where no
+            snow lies; None in results read from files written before 2026-11-27).
+        snow: (nx, ny) bool, the snow-covered cells (those that hold particles).
     """
 
     x: np.ndarray  # (nx,) cell centres up-slope [m]
@@ -97,6 +106,8 @@ class SlopeResult:
     summary: dict[str, Any]
     setup: SlopeSetup
     params: PSTParams
+    thickness: np.ndarray | None = None  # initial h0 [m] (0: no snow)
+    snow: np.ndarray | None = None  # snow-covered cells (bool)
 
     def to_dataset(self) -> Any:
         """xarray Dataset of the maps and snapshots, CF-style units and long names.
@@ -118,6 +129,24 @@ class SlopeResult:
                 "opening": var(("x", "y"), self.opening, "1", "tensile plastic strain"),
                 "tau_peak": var(("x", "y"), self.tau_peak, "Pa", "weak-layer shear strength"),
                 "slope_angle": var(("x", "y"), self.slope_deg, "degree", "local slope angle"),
+                **(
+                    {}
+                    if self.thickness is None
+                    else {
+                        "thickness": var(
+                            ("x", "y"), self.thickness, "m", "initial slab thickness h0"
+                        )
+                    }
+                ),
+                **(
+                    {}
+                    if self.snow is None
+                    else {
+                        "snow": var(
+                            ("x", "y"), np.asarray(self.snow, np.int8), "1", "snow-covered cell"
+                        )
+                    }
+                ),
             },
             coords={
                 "x": var(("x",), self.x, "m", "up-slope distance along the surface"),
@@ -174,6 +203,8 @@ jax.tree_util.register_dataclass(
         "snapshots",
         "summary",
         "params",
+        "thickness",
+        "snow",
     ],
     meta_fields=["setup"],
 )
@@ -191,7 +222,7 @@ def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
 
 
 def _crown_and_stauchwall(
-    model: Any, final: Any, height: np.ndarray, h0: float, cm: Any
+    model: Any, final: Any, height: np.ndarray, h0: Any, cm: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """Crown and stauchwall cells (nx, ny). With a particle lattice (the "crack_band"
     slab) from band openings, fixed in metres: the crown where the tensile band opening
@@ -199,7 +230,8 @@ def _crown_and_stauchwall(
     where the compressive band closure (the volumetric plastic compaction times the
     particle spacing, summed across the band as `damjax.materials.slab_fracture.band_opening` does)
     reached `FRACTURE_OPENING` (1 mm). Without one: the column height changed by more
-    than 2 % (thresholds on h, which depend on dx)."""
+    than 2 % of the initial thickness h0 (a scalar or the cells' (nx, ny) map; thresholds
+    on h, which depend on dx)."""
     if not model.lattice:
         return height < 0.98 * h0, height > 1.02 * h0
     w = band_opening(model, final.opening, opening_y=final.opening_y)
@@ -312,12 +344,54 @@ def _slope_notes(
     return notes
 
 
-def overloaded_fraction(params: PSTParams, slope_deg: Any, tau_peak: Any) -> float:
+def overloaded_fraction(
+    params: PSTParams, slope_deg: Any, tau_peak: Any, thickness: Any = None
+) -> float:
     """Share of the cells where tau_p <= rho g h sin(psi): the weak layer fails there
-    under the slab's weight (scalars or (nx, ny) maps, broadcast)."""
+    under the slab's weight (scalars or (nx, ny) maps, broadcast; ``thickness`` [m]:
+    default ``params.thickness``)."""
     psi = np.radians(np.asarray(slope_deg, dtype=float))
-    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(psi)
+    h = float(params.thickness) if thickness is None else np.asarray(thickness, dtype=float)
+    tau_g = float(params.density) * G_ACC * h * np.sin(psi)
     return float(np.mean(np.asarray(tau_peak, dtype=float) <= tau_g))
+
+
+def initial_failures(model: Model) -> Any:
+    """(n,) bool: particles whose weak layer fails under the slab's own weight at t = 0,
+    tau_p <= rho g h0 sin(psi) (the pre-load of `damjax.core.model.build_slope` reaches
+    the peak), in the model's own values (h0 and psi at each particle)."""
+    g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
+    return model.tau_peak <= model.density * model.thickness * g_t
+
+
+# share of the released area's boundary on the domain's edge above which a run warns
+DOMAIN_EDGE_WARN = 0.05
+
+
+def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None) -> float | None:
+    """Share of the released area's boundary that lies on the domain's edge.
+
+    The boundary is counted in cell faces between a released cell and one that is not
+    (``released``: (nx, ny) bool); a face is on the domain's edge where the other cell
+    lies outside the rectangle or outside ``domain`` ((nx, ny) bool: the terrain the run
+    may release, e.g. the buffer around a release polygon within the DEM's data; None:
+    the whole rectangle). Cells inside the domain without snow (steep rock, a mask) are
+    terrain, not domain edge. None when nothing released.
+    """
+    rel = np.asarray(released, bool)
+    if not rel.any():
+        return None
+    dom = np.ones_like(rel) if domain is None else np.asarray(domain, bool)
+    rel_p = np.pad(rel, 1)
+    out_p = ~np.pad(dom, 1, constant_values=False)  # outside the rectangle: edge
+    total = edge = 0
+    for ax, sh in ((0, 1), (0, -1), (1, 1), (1, -1)):
+        nb_rel = np.roll(rel_p, sh, axis=ax)[1:-1, 1:-1]
+        nb_out = np.roll(out_p, sh, axis=ax)[1:-1, 1:-1]
+        face = rel & ~nb_rel
+        total += int(face.sum())
+        edge += int((face & nb_out).sum())
+    return edge / total if total else 0.0
 
 
 def _ratio_or_none(v: float, cs: float) -> float | None:
@@ -356,6 +430,11 @@ def simulate_slope(
     start_chunk: int = 0,
     history: tuple[list[Any], list[Any]] | None = None,
     callback: Any = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
 ) -> SlopeResult:
     """Run a slope-scale release.
 
@@ -392,6 +471,23 @@ def simulate_slope(
             from the inputs.
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
+        thickness: initial slab thickness h0 normal to the slope [m], (nx, ny) at cell
+            centres (`damjax.snow_cover`); None (default): ``params.thickness``
+            everywhere, the uniform slab of earlier versions (bitwise the same run).
+        cover: (nx, ny) bool, the snow-covered cells: only they hold particles (a cell
+            without snow costs no particle work and is a free edge); None: every cell.
+        stability: stability ratio S = tau_p / tau_g [-], (nx, ny) or a scalar, instead
+            of ``tau_peak``: each particle's strength is S times the shear its own slab
+            loads it with, rho g h0 sin(psi).
+        wl_friction: friction coefficient mu [-] of the weak layer's strength (a scalar or
+            (nx, ny)): tau_p = tau_peak + mu rho g h0 cos(psi), ``tau_peak`` the cohesion.
+        domain: (nx, ny) bool, the cells the run may release (a release polygon's buffer
+            within the DEM's data); its edge, with the rectangle's, is where the summary's
+            ``domain_edge_fraction`` counts the release as bounded by the domain. None:
+            the rectangle.
+
+    Slab that slides over the grid's edge leaves the run (outflow, counted in the
+    summary) instead of stopping it.
     """
     setup = SlopeSetup() if setup is None else setup
     expect_types(
@@ -402,32 +498,37 @@ def simulate_slope(
     )
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
-    inputs = (params, slope_deg, tau_peak, fall_deg)
+    snow = {"thickness": thickness, "cover": cover, "stability": stability}
+    snow["wl_friction"] = wl_friction
+    inputs = (params, slope_deg, tau_peak, fall_deg, snow)
     if is_traced(inputs):
         if progress or state is not None or start_chunk or history or callback is not None:
             raise TypeError(
                 "simulate_slope: progress, resume (state, start_chunk, history) and callback "
                 "need concrete inputs; inside jax.grad/jit/vmap call it without them"
             )
-        return _simulate_slope_traced(params, setup, slope_deg, tau_peak, fall_deg, layout)
+        return _simulate_slope_traced(params, setup, slope_deg, tau_peak, fall_deg, layout, snow)
     problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
+    problems += snow_problems(setup, **snow, domain=domain)
     if problems:
         raise ValueError("\n".join(problems))
     for note in _slope_notes(params, setup, slope_deg, fall_deg):
         warnings.warn(note, SlopeRunWarning, stacklevel=2)
+    ensure_x64(setup.dtype)
+    if layout is None:
+        layout = make_slope_layout(params, setup, steepest_covered(slope_deg, cover))
+    model, state0, xp, yp = build_slope(
+        params, setup, layout, slope_deg, tau_peak, fall_deg, **snow
+    )
     # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
-    frac = overloaded_fraction(params, slope_deg, tau_peak)
-    if frac > 0:
+    fails0 = np.asarray(initial_failures(model))
+    if fails0.any():
         warnings.warn(
             f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
-            f"{100 * frac:.3g} % of the area: the weak layer fails there "
+            f"{100 * fails0.mean():.3g} % of the area: the weak layer fails there "
             "under the slab's weight at once (a strength map in kPa instead of Pa?)",
             stacklevel=2,
         )
-    ensure_x64(setup.dtype)
-    if layout is None:
-        layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
-    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -462,8 +563,21 @@ def simulate_slope(
         dy, t_b[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
     )
     height = cm(column_height(model, final))
-    h0 = float(params.thickness)
+    nx, ny = layout.n_cells
+    snow_map = (
+        np.bincount(
+            (cell0[0] - layout.pad[0]) * ny + cell0[1] - layout.pad[1], minlength=nx * ny
+        ).reshape(nx, ny)
+        > 0
+    )
+    if np.ndim(model.thickness) == 0:
+        h0 = np.where(snow_map, float(model.thickness), 0.0)
+    else:
+        h0 = cm(model.thickness)
     crown, stauch = _crown_and_stauchwall(model, final, height, h0, cm)
+    released_map = cm(t_b, "min") < np.inf
+    edge_frac = domain_edge_fraction(released_map, domain)
+    n_out = 0 if final.outflow is None else int(np.sum(np.asarray(final.outflow)))
     fault = None
     if int(final.fault):
         fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
@@ -500,6 +614,14 @@ def simulate_slope(
         # the saw stops once the crack leads it: until then the release is the cut
         "saw_stopped": not bool(final.saw_active),
         "sawn_area_m2": float(np.sum(np.asarray(model.saw_coord) < saw_r) * float(model.area0)),
+        # the weak layer failing under the slab's own weight at t = 0 (before any cut)
+        "initial_failure_area_m2": float(fails0.sum() * float(model.area0)),
+        # slab that slid out over the grid's edge (it left the run; counted as released)
+        "outflow_particles": n_out,
+        "outflow_area_m2": float(n_out * float(model.area0)),
+        # share of the released area's boundary on the domain's edge (None: no release)
+        "domain_edge_fraction": edge_frac,
+        "snow_area_m2": float(xp.size * float(model.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
         "n_particles": int(xp.size),
@@ -508,6 +630,14 @@ def simulate_slope(
         "wall_time_s": info.wall_time_s,
         "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
     }
+    if edge_frac is not None and edge_frac > DOMAIN_EDGE_WARN:
+        warnings.warn(
+            f"simulate_slope: {100 * edge_frac:.3g} % of the released area's boundary lies on "
+            "the domain's edge (summary domain_edge_fraction): bounded by the domain, not "
+            "the terrain: enlarge the buffer (terrain.buffer) or the domain",
+            SlopeRunWarning,
+            stacklevel=2,
+        )
     if bool(final.saw_active) and not fault:
         warnings.warn(
             f"simulate_slope: the crack never ran ahead of the saw in {float(final.time):.3g} "
@@ -518,7 +648,6 @@ def simulate_slope(
             SlopeRunWarning,
             stacklevel=2,
         )
-    nx, ny = layout.n_cells
     snapshots = {}
     if snaps:
         snapshots = {
@@ -541,7 +670,19 @@ def simulate_slope(
         summary=summary,
         setup=setup,
         params=params,
+        thickness=h0,
+        snow=snow_map,
     )
+
+
+def steepest_covered(slope_deg: Any, cover: Any = None) -> float:
+    """The steepest slope angle [deg] of the snow-covered cells (all with ``cover`` None):
+    what a released slab may accelerate on (`make_slope_layout`)."""
+    psi = np.asarray(slope_deg, dtype=float)
+    if cover is None or psi.ndim == 0:
+        return float(np.max(psi))
+    c = np.asarray(cover, bool)
+    return float(np.max(psi[c])) if c.any() else float(np.max(psi))
 
 
 # compiled once per model structure and layout: a repeated jax.grad / jax.vmap of a function
@@ -549,10 +690,10 @@ def simulate_slope(
 _integrate_pure_jit = eqx.filter_jit(integrate_pure)
 
 
-def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
+def _batch_layout(members: list[Any], setup: SlopeSetup, cover: Any = None) -> SlopeLayout:
     """One layout that fits every member of a batch: the widest padding, the most steps,
     plastic if any member is."""
-    layouts = [make_slope_layout(m[0], setup, float(np.max(m[1]))) for m in members]
+    layouts = [make_slope_layout(m[0], setup, steepest_covered(m[1], cover)) for m in members]
     pad_x = max(lay.pad[0] for lay in layouts)
     pad_y = max(lay.pad[1] for lay in layouts)
     nx, ny = layouts[0].n_cells
@@ -570,7 +711,9 @@ def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
 SLOPE_LAYOUT_FIELDS = ("youngs_modulus", "density", "poisson", "friction_deg")
 
 
-def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> SlopeLayout:
+def _layout_from_known(
+    params: PSTParams, setup: SlopeSetup, slope_deg: Any, cover: Any = None
+) -> SlopeLayout:
     """`make_slope_layout` inside `jax.jit` (or nested `jax.vmap`) from the inputs whose
     values are known: `SLOPE_LAYOUT_FIELDS` and the slope angle must be, the others (the
     strength map tau_peak, fall_deg, tensile_strength, softening, wl_shear_modulus, ...)
@@ -592,7 +735,7 @@ def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> 
             "simulate_slope(..., layout=layout). Traced inputs that do not fix it need no "
             "layout"
         )
-    steepest = max(float(np.max(np.asarray(v, dtype=float))) for v in slope)
+    steepest = max(steepest_covered(v, cover) for v in slope)
     return make_slope_layout(known_params(params, unknown), setup, steepest)
 
 
@@ -603,21 +746,31 @@ def _simulate_slope_traced(
     tau_peak: Any,
     fall_deg: Any,
     layout: SlopeLayout | None,
+    snow: dict[str, Any] | None = None,
 ) -> SlopeResult:
     """`simulate_slope` on traced inputs: the pure run, JAX maps (`SlopeResult`)."""
     require_x64(setup.dtype)
+    snow = snow or {}
     # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
     members = concrete_members((params, slope_deg, tau_peak, fall_deg))
     for member in members or ():
         problems = slope_problems(member[0], setup, *member[1:])
         if problems:
             raise ValueError("\n".join(problems))
+    cover = snow.get("cover")
+    if cover is not None and is_traced(cover):
+        raise TypeError(
+            "simulate_slope: cover (the snow-covered cells) fixes which particles exist: "
+            "it must be a concrete array, not traced"
+        )
     if layout is None:
         if members is None:
-            layout = _layout_from_known(params, setup, slope_deg)
+            layout = _layout_from_known(params, setup, slope_deg, cover)
         else:
-            layout = _batch_layout(members, setup)
-    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
+            layout = _batch_layout(members, setup, cover)
+    model, state0, xp, yp = build_slope(
+        params, setup, layout, slope_deg, tau_peak, fall_deg, **snow
+    )
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
     # each particle's cell from its reference position (host values: model.cell0 may be
@@ -638,7 +791,9 @@ def _simulate_slope_traced(
         "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.area0,
         "saw_radius_m": final.saw_pos,
         "fault_code": final.fault,
+        "outflow_particles": jnp.sum(final.outflow) if final.outflow is not None else 0,
     }
+    thickness = None if jnp.ndim(model.thickness) == 0 else cm(model.thickness)
     return SlopeResult(
         x=(np.arange(nx) + 0.5) * setup.dx,
         y=(np.arange(ny) + 0.5) * setup.dx,
@@ -652,4 +807,5 @@ def _simulate_slope_traced(
         summary=summary,
         setup=setup,
         params=params,
+        thickness=thickness,
     )
