@@ -40,7 +40,7 @@ from damjax.ensemble.products import (
     slice_name,
 )
 from damjax.ensemble.spec import Ensemble, _is_int, key_of, member_draws, member_scenario
-from damjax.scenario.slope_fields import resolve_fields, simulate
+from damjax.scenario.slope_fields import resolve_inputs, simulate
 from damjax.validation import ensure_x64
 
 PLAN_FILE = "plan.json"
@@ -54,9 +54,9 @@ MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # --------------------------------------------------------------------------- planning
 
 
-def _resolve(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]:
+def _resolve(scn: Any) -> Any:
     try:
-        return resolve_fields(scn)
+        return resolve_inputs(scn)
     except ValueError as exc:  # a plain one-line ValueError
         raise ValueError(str(exc)) from None
 
@@ -65,8 +65,7 @@ def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
     """One layout for every member: the largest grid padding and the smallest time step
     any member needs (`damjax.core.model.make_slope_layout`)."""
     scn = ens.scenario
-    sl, _, _, _ = _resolve(scn)
-    max_slope = float(np.max(sl))
+    max_slope = _resolve(scn).max_slope_deg
     members = range(ens.members) if members is None else members
     layouts = []
     for i in members if (ens.params or ens.strength) else [0]:
@@ -96,10 +95,18 @@ def _build_members(ens: Ensemble, idx: list[int], layout: Any) -> tuple[Any, Any
     models, states, scns = [], [], []
     for i in idx:
         scn = member_scenario(ens, i)
-        sl, fall, tau, start = _resolve(scn)
-        setup = dataclasses.replace(scn.setup, start=start)
+        inp = _resolve(scn)
+        setup = dataclasses.replace(scn.setup, start=inp.start)
         ensure_x64(setup.dtype)
-        m, s, _, _ = build_slope(scn.params, setup, layout, sl, tau, fall)
+        m, s, _, _ = build_slope(
+            scn.params,
+            setup,
+            layout,
+            inp.slope_deg,
+            inp.tau_peak,
+            inp.fall_deg,
+            **inp.snow_kwargs(),
+        )
         models.append(m)
         states.append(s)
         scns.append(scn)

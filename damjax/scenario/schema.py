@@ -138,6 +138,7 @@ TOP_KEYS = (
     "strength",
     "terrain",
     "profile",
+    "snow",  # slope scenarios: the snow cover (damjax.scenario.slope; 2026-11-27)
 )
 STRENGTH_KEYS = ("file", "fit", "points")
 PROFILE_KEYS = ("file", "weak_layer", "modulus", "vertical", "date", "use_strength")
@@ -193,6 +194,7 @@ class Scenario:
     type: str = "pst"
     terrain: dict[str, Any] | None = None  # slope scenarios: the [terrain] table
     strength: dict[str, Any] | None = None  # slope scenarios: the [strength] table
+    snow: dict[str, Any] | None = None  # slope scenarios: the [snow] table
 
     def to_dict(self) -> dict[str, Any]:
         """Every field resolved (defaults included), TOML-ready python values."""
@@ -208,7 +210,7 @@ class Scenario:
             f.name: _plain(getattr(self.setup, f.name))
             for f in dataclasses.fields(type(self.setup))
         }
-        for table in ("terrain", "strength"):
+        for table in ("terrain", "strength", "snow"):
             if getattr(self, table) is not None:
                 out[table] = {k: _plain(v) for k, v in getattr(self, table).items()}
         out["output"] = {
@@ -227,7 +229,7 @@ class Scenario:
         data = self.to_dict()
         for section, values in sections.items():
             if section in SECTIONS or (
-                section in ("terrain", "strength") and isinstance(data.get(section), dict)
+                section in ("terrain", "strength", "snow") and isinstance(data.get(section), dict)
             ):
                 data[section] = {**data.get(section, {}), **values}
             else:

@@ -86,7 +86,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.constants import DTYPES, G_ACC, MCC_INVARIANTS, P0_RULES, SLAB_FRACTURE_MODELS
+from damjax.constants import DTYPES, MCC_INVARIANTS, P0_RULES, SLAB_FRACTURE_MODELS
 from damjax.params import PSTParams, PSTSetup, SlopeSetup
 from damjax.scenario.schema import (
     MAX_PARTICLES,
@@ -97,13 +97,19 @@ from damjax.scenario.schema import (
     _retarget,
     register,
 )
-from damjax.scenario.slope_fields import _GENERIC_DEFAULTS, _FieldProblem, resolve_fields
+from damjax.scenario.slope_fields import (
+    _GENERIC_DEFAULTS,
+    _FieldProblem,
+    natural_release_problem,
+    resolve_inputs,
+)
 from damjax.slope.generic import window_problem
-from damjax.slope.simulation import overloaded_fraction
 from damjax.validation import MIN_CELLS, SETUP_CHOICES, SETUP_RULES, must_text, param_problems
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
-STRENGTH_KINDS = ("constant", "grf", "map")
+STRENGTH_KINDS = ("constant", "grf", "map", "stability", "coulomb")
+SNOW_KINDS = ("uniform", "slope_corrected", "depth_map")
+TRIGGERS = ("weakest", "random")
 UPSLOPE_AXES = ("+x", "-x", "+y", "-y")
 COVARIANCE_MODELS = ("gaussian", "exponential")
 # PSTParams fields with no meaning on a slope (a PST strength profile)
@@ -133,8 +139,13 @@ _TERRAIN_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "release": ("str", None, ""),
         "margin": ("float", _NONNEG, "m"),
         "thickness_field": ("str", None, ""),
+        # a domain the terrain bounds (2026-11-27): the terrain within this map distance
+        # of the release polygon, clipped to the DEM (default BUFFER_DEFAULT with a
+        # polygon, unless a margin is given: the rectangle of earlier versions)
+        "buffer": ("float", _POS, "m"),
     },
 }
+BUFFER_DEFAULT = 150.0  # [m] around a release polygon
 _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "constant": {"tau_peak": ("float", _POS, "Pa"), "trend": ("float", _ANY, "Pa/m")},
     "grf": {
@@ -154,8 +165,55 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "origin": ("pair", _ANY, "m"),
         "variable": ("str", None, ""),
     },
+    # --- a weak layer that holds its own slab (2026-11-27) ---------------------------
+    # "stability": S = tau_p / tau_g, tau_g = rho g h0 sin(psi) each particle's own load;
+    # S - 1 a log-normal random field (damjax.fields.stability_field), S > 1 everywhere
+    "stability": {
+        "mean": ("float", (lambda v: v > 1 and math.isfinite(v), "(1, inf)"), ""),
+        "cov": ("float", _NONNEG, ""),
+        "length_scale": ("floats", _POS, "m"),
+        "angle_deg": ("float", _ANY, "deg"),
+        "model": ("str", COVARIANCE_MODELS, ""),
+        "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
+        "field_dx": ("float", _POS, "m"),
+    },
+    # "coulomb": tau_p = cohesion + friction_coefficient x rho g h0 cos(psi); the cohesion
+    # a constant or (std > 0) a Gaussian random field as "grf"'s
+    "coulomb": {
+        "cohesion": ("float", _NONNEG, "Pa"),
+        "friction_coefficient": ("float", _NONNEG, ""),
+        "std": ("float", _NONNEG, "Pa"),
+        "length_scale": ("floats", _POS, "m"),
+        "angle_deg": ("float", _ANY, "deg"),
+        "model": ("str", COVARIANCE_MODELS, ""),
+        "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
+        "field_dx": ("float", _POS, "m"),
+    },
 }
-_STRENGTH_COMMON = {"start_window": ("window", _NONNEG, "m")}
+_STRENGTH_COMMON = {
+    "start_window": ("window", _NONNEG, "m"),
+    # a run in which a snow-covered cell outside the trigger fails under its own slab at
+    # t = 0 stops before it starts, unless this is true (2026-11-27)
+    "natural_release": ("bool", None, ""),
+    # "weakest" (default): the weakest spot (start_window, polygon) or setup.start;
+    # "random": a random cell of the start zone, drawn with strength.seed (2026-11-27)
+    "trigger": ("str", TRIGGERS, ""),
+}
+# --- the snow cover (2026-11-27; damjax.snow_cover) -----------------------------------
+_ANGLE_TO_90 = (lambda v: 0 < v <= 90, "(0, 90]")
+_SNOW_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
+    "uniform": {},  # params.thickness (or the polygon's attribute) everywhere
+    # d = reference_thickness x 0.291 / (sin psi - 0.202 cos psi) (Swiss guidelines)
+    "slope_corrected": {"reference_thickness": ("float", _POS, "m")},
+    # a raster of the vertical snow depth HS [m] in the DEM's CRS: d = HS cos(psi)
+    "depth_map": {"file": ("str", None, "")},
+}
+_SNOW_COMMON = {
+    "max_slope_deg": ("float", _ANGLE_TO_90, "deg"),  # no slab steeper (default 60)
+    "min_thickness": ("float", _NONNEG, "m"),  # no slab thinner (default 0.1)
+    "start_min_slope_deg": ("float", _ANGLE, "deg"),  # start zone's lower edge (28)
+    "mask": ("str", None, ""),  # raster in the DEM's CRS: nonzero cells hold no snow
+}
 
 
 def _is_number(v: Any) -> bool:
@@ -202,7 +260,12 @@ def _check_table(
         typ, rule, unit = keys[key]
         name = f"{section}.{key}"
         u = f" {unit}" if unit else ""
-        if typ == "str":
+        if typ == "bool":
+            if not isinstance(value, bool):
+                problems.append(f"{name} = {_fmt(value)}: must be true or false")
+                continue
+            out[key] = value
+        elif typ == "str":
             if rule is None:
                 if not isinstance(value, str) or not value:
                     problems.append(f"{name} = {_fmt(value)}: must be a path (a string)")
@@ -290,6 +353,9 @@ def _place_release(
         return
     thickness_given = "thickness" in pgiven
     field = terrain.get("thickness_field", "thickness")
+    if "buffer" not in terrain and "margin" not in terrain:
+        terrain["buffer"] = BUFFER_DEFAULT
+    buffer = terrain.get("buffer")
     try:
         area = release_area.read_release_area(
             rel_file,
@@ -298,6 +364,7 @@ def _place_release(
             margin=float(terrain.get("margin", 10.0)),
             upslope=terrain.pop("upslope", None),  # re-added after origin (key order)
             thickness_field="" if thickness_given and "thickness_field" not in terrain else field,
+            buffer=None if buffer is None else float(buffer),
         )
     except release_area.ReleaseAreaError as exc:
         problems.append(str(exc))
@@ -311,7 +378,7 @@ def _place_release(
         if not np.allclose(np.asarray(value, float), placed[key], rtol=1e-9, atol=1e-6):
             problems.append(
                 f"{key} = {_fmt(value)}: set by terrain.release (the polygon plus "
-                f"terrain.margin gives {_fmt(placed[key])}); remove it"
+                f"terrain.buffer or terrain.margin gives {_fmt(placed[key])}); remove it"
             )
     terrain["origin"] = list(area.origin)
     terrain["upslope"] = area.upslope
@@ -369,7 +436,13 @@ def check(
         _STRENGTH_COMMON,
         problems,
     )
+    snow = None
+    if "snow" in data:
+        snow = _check_table(
+            "snow", data["snow"], _SNOW_KEYS, SNOW_KINDS, "uniform", _SNOW_COMMON, problems
+        )
     notes: list[str] = []
+    _snow_strength_rules(terrain, strength, snow, base_dir, problems)
     if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
         _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes)
     # params: ranges (damjax.validation's rules), retargeted to TOML keys
@@ -492,14 +565,15 @@ def check(
         type="slope",
         terrain=terrain,
         strength=strength,
+        snow=snow,
     )
     # read the files and check the fields (before anything compiles)
     try:
-        fields = resolve_fields(scn)
+        inp = resolve_inputs(scn)
     except _FieldProblem as exc:
         problems.append(str(exc))
         return None, []
-    slope, _, tau, start = fields
+    slope, start = inp.slope_deg, inp.start
     if not np.all(np.isfinite(slope)) or np.min(slope) <= 0 or np.max(slope) >= 90:
         where = "terrain" if terrain and terrain["kind"] != "plane" else "params.slope_deg"
         problems.append(
@@ -507,14 +581,18 @@ def check(
             f"{np.nanmax(slope):.3g} deg: must all be in (0, 90) deg"
         )
         return None, []
-    frac = overloaded_fraction(params, slope, tau)
-    if frac > 0 and not (terrain is not None and "release" in terrain):
-        # (on a polygon's rectangle the terrain decides it: warn_resolution warns)
-        notes.append(
-            f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
-            f"{100 * frac:.3g} % of the release area (the weak layer fails there under the "
-            "slab's weight)"
-        )
+    if inp.thickness is not None:  # the thinnest slab sets the elastic length
+        thin = float(np.min(inp.thickness if inp.cover is None else inp.thickness[inp.cover]))
+        lam = float(theory.elastic_length(dataclasses.replace(params, thickness=thin)))
+        if setup.dx > lam / 2:
+            problems.append(
+                f"setup.dx = {_fmt(setup.dx)}: must be at most Lambda/2 = {lam / 2:.4g} m "
+                f"at the thinnest slab, {thin:.3g} m (snow.min_thickness: no slab thinner)"
+            )
+            return None, []
+    problem = natural_release_problem(scn, inp, advice=False)
+    if problem:  # strength.natural_release = true (resolve_inputs refuses it otherwise)
+        notes.append(f"{problem} (strength.natural_release = true: run as a natural release)")
     if "start" in svals and strength is not None and "start_window" in strength:
         notes.append(
             f"setup.start = {_fmt(list(setup.start))} is not used: strength.start_window "
@@ -524,22 +602,7 @@ def check(
 
 
 def warn_resolution(scn: Any) -> None:
-    """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5; for a
-    ``terrain.release`` scenario also when the weak layer fails under the slab's weight
-    somewhere in the polygon's rectangle (steep DEM cells: a property of the terrain)."""
-    if scn.terrain is not None and scn.terrain.get("release"):
-        from damjax.scenario.slope_fields import resolve_fields
-
-        slope, _, tau, _ = resolve_fields(scn)
-        frac = overloaded_fraction(scn.params, slope, tau)
-        if frac > 0:
-            warnings.warn(
-                f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
-                f"{100 * frac:.3g} % of the release polygon's rectangle (DEM cells steeper "
-                f"than {np.degrees(np.arcsin(min(1.0, _min_ratio(scn)))):.3g} deg for the "
-                "mean strength): the weak layer fails there under the slab's weight",
-                stacklevel=3,
-            )
+    """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5."""
     lam = float(theory.elastic_length(scn.params))
     if scn.setup.dx > lam / 5:
         warnings.warn(
@@ -549,11 +612,31 @@ def warn_resolution(scn: Any) -> None:
         )
 
 
-def _min_ratio(scn: Any) -> float:
-    """Mean strength over rho g h (sin of the angle at which the mean strength fails)."""
-    st = scn.strength or {}
-    mean = float(st.get("mean", st.get("tau_peak", scn.params.tau_peak)))
-    return mean / (float(scn.params.density) * G_ACC * float(scn.params.thickness))
+def _snow_strength_rules(
+    terrain: Any, strength: Any, snow: Any, base_dir: Any, problems: list[str]
+) -> None:
+    """The rules between [snow], [strength] and [terrain] keys (files resolved)."""
+    dem = terrain is not None and terrain["kind"] == "dem"
+    if snow is not None:
+        for key in ("file", "mask"):
+            if key in snow:
+                if not dem:
+                    problems.append(
+                        f'snow.{key}: a raster in the DEM\'s coordinates needs terrain.kind = "dem"'
+                    )
+                snow[key] = str(_resolve_path(snow[key], base_dir))
+        if snow["kind"] == "depth_map" and "file" not in snow:
+            problems.append("snow.file: missing (a raster of the vertical snow depth HS [m])")
+    if strength is not None:
+        if strength["kind"] == "coulomb":
+            for key in ("cohesion", "friction_coefficient"):
+                if key not in strength:
+                    problems.append(f'strength.{key}: missing (strength.kind = "coulomb")')
+        if strength.get("trigger") == "random" and "start_window" in strength:
+            problems.append(
+                'strength.trigger = "random": draws the start in the start zone; give no '
+                "strength.start_window"
+            )
 
 
 register("slope", check, warn_resolution)
