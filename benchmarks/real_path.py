@@ -207,7 +207,7 @@ def release_metrics(scn: Any, prob: np.ndarray, x: np.ndarray, y: np.ndarray) ->
 def toy_scenario(path: str, folder: Path, size: float = 20.0, duration: float = 0.2) -> Any:
     """A toy version of a path's scenario (seconds on a CPU): a ``size`` m square release
     polygon (GeoJSON in ``folder``, the documented polygon's CRS and thickness) around the
-    documented polygon's representative point, 2 m margin, ``duration`` s."""
+    documented polygon's representative point, 2 m of terrain around it, ``duration`` s."""
     import tomllib
     import warnings
 
@@ -232,7 +232,7 @@ def toy_scenario(path: str, folder: Path, size: float = 20.0, duration: float = 
     data["name"] = f"{scenario_name(path)}-toy"
     data["terrain"]["file"] = str((lib.parent / data["terrain"]["file"]).resolve())
     data["terrain"]["release"] = str(poly)
-    data["terrain"]["margin"] = 2.0
+    data["terrain"]["buffer"] = 2.0
     data["setup"]["duration"] = duration
     data["setup"]["chunk_steps"] = 50
     with warnings.catch_warnings():

@@ -511,6 +511,8 @@ def slope_particle_fields(
     fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
     if thickness is None:
         h = f(params.thickness)
+    elif jnp.ndim(thickness) == 0:  # a uniform slab: the scalar model
+        h = f(thickness)
     else:
         h = _bilinear(jnp.asarray(thickness, dtype), xp, yp, dx).astype(dtype)
     rho_g_h = f(params.density) * G_ACC * h
@@ -523,6 +525,18 @@ def slope_particle_fields(
         mu = _bilinear(jnp.asarray(wl_friction, dtype), xp, yp, dx).astype(dtype)
         tau_p = tau_p + mu * rho_g_h * jnp.cos(psi)
     return {"psi": psi, "fall": fall, "thickness": h, "tau_g": tau_g, "tau_peak": tau_p}
+
+
+def uniform_value(field: Any) -> Any:
+    """A concrete map whose cells all hold one value as that value (a float: the scalar
+    model, bitwise that of a scalar input); anything else as it is."""
+    if field is None or isinstance(field, jax.core.Tracer) or np.ndim(field) == 0:
+        return field
+    a = np.asarray(field)
+    flat = a.ravel()
+    if flat.size and np.all(flat == flat[0]):
+        return float(flat[0])
+    return field
 
 
 def build_slope(
@@ -553,6 +567,7 @@ def build_slope(
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     dx, ppc = setup.dx, setup.particles_per_cell
     nx, ny = layout.n_cells
+    thickness = uniform_value(thickness)  # a uniform map is the scalar model
     cell0, frac0, xp, yp = slope_particles(setup, layout.pad, cover)
     n = xp.size
     if n == 0:

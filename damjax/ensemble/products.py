@@ -36,6 +36,10 @@ SUMMARY_KEYS = (
     "upslope_crack_speed_over_cs",
     "crossslope_crack_speed_over_cs",
     "start_slope_deg",
+    # a release on terrain (2026-11-27)
+    "domain_edge_fraction",
+    "initial_failure_area_m2",
+    "outflow_area_m2",
 )
 _UNITS = {
     "release_area_m2": ("m2", "area of failed weak layer"),
@@ -59,6 +63,9 @@ _UNITS = {
     "upslope_crack_speed_over_cs": ("1", "peak up-slope crack speed over c_s"),
     "crossslope_crack_speed_over_cs": ("1", "peak cross-slope crack speed over c_s"),
     "start_slope_deg": ("degree", "slope angle at the start"),
+    "domain_edge_fraction": ("1", "share of the release's boundary on the domain's edge"),
+    "initial_failure_area_m2": ("m2", "weak layer failing under its own slab at t = 0"),
+    "outflow_area_m2": ("m2", "slab that slid out over the grid's edge"),
 }
 
 

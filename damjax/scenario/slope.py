@@ -353,6 +353,12 @@ def _place_release(
         return
     thickness_given = "thickness" in pgiven
     field = terrain.get("thickness_field", "thickness")
+    if "buffer" in terrain and "margin" in terrain:
+        problems.append(
+            "terrain.margin: give terrain.buffer (the terrain around the polygon) or "
+            "terrain.margin (the rectangle of the polygon plus a margin), not both"
+        )
+        return
     if "buffer" not in terrain and "margin" not in terrain:
         terrain["buffer"] = BUFFER_DEFAULT
     buffer = terrain.get("buffer")
