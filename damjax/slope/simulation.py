@@ -554,13 +554,16 @@ def simulate_slope(
     x_top = np.max(np.where(broken, xp, 0.0))
     cs = float(theory.shear_wave_speed(params))
     saw_r = float(final.saw_pos)
+    # a crack front's speed, from the failures it caused: the weak layer that failed
+    # under its own slab at t = 0 was no front's doing (all at once: no speed)
+    t_front = np.where(fails0, np.inf, t_b)
     v_up, v_up_peak = _front_speed(
-        xp[band_x] - x0, t_b[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0)
+        xp[band_x] - x0, t_front[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0)
     )
     dy = np.abs(yp[band_y] - y0)
     across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
     v_cross, v_cross_peak = _front_speed(
-        dy, t_b[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
+        dy, t_front[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
     )
     height = cm(column_height(model, final))
     nx, ny = layout.n_cells
