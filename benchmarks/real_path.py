@@ -201,6 +201,32 @@ def release_metrics(scn: Any, prob: np.ndarray, x: np.ndarray, y: np.ndarray) ->
     return out
 
 
+def terrain_metrics(folder: Path, ds: Any) -> dict[str, Any]:
+    """Per member (a run's ``summary.json``, an ensemble's member variables): the share
+    of the release's boundary on the domain's edge, the sources of the arrival-time map,
+    the area failing at t = 0 and the outflow; for an ensemble also how many members
+    stay below 5 % on the edge and have one source."""
+    keys = ("domain_edge_fraction", "arrival_sources", "initial_failure_area_m2",
+            "outflow_area_m2")  # fmt: skip
+    if "member" in ds.dims:
+        out: dict[str, Any] = {
+            k: [None if not np.isfinite(v) else float(v) for v in ds[k].values]
+            for k in keys
+            if k in ds
+        }
+        if "domain_edge_fraction" in ds:
+            edge = np.asarray(ds["domain_edge_fraction"].values, float)
+            out["members_edge_below_5pc"] = int(np.sum(np.nan_to_num(edge, nan=1.0) <= 0.05))
+        if "arrival_sources" in ds:
+            out["members_one_source"] = int(np.sum(ds["arrival_sources"].values == 1))
+        return out
+    summ = Path(folder, "summary.json")
+    if not summ.is_file():
+        return {}
+    sj = json.loads(summ.read_text())
+    return {k: sj.get(k) for k in keys if k in sj}
+
+
 # ------------------------------------------------------------------ damjax's side
 
 
@@ -365,8 +391,12 @@ def run_path(
         scn = scenario if scenario is not None else scenarios.load(scenario_name(path))
     row: dict[str, Any] = {"benchmark": "real_path", "path": path, "scenario": scn.name}
     s = scn.setup
+    from damjax.scenario.slope_fields import resolve_inputs
+
+    cover = resolve_inputs(scn).cover  # the snow-covered cells hold the particles
     n_cells = int(round(s.length / s.dx)) * int(round(s.width / s.dx))
-    row.update(dx_m=s.dx, duration_s=s.duration, particles=n_cells, members=members)
+    n_particles = n_cells if cover is None else int(cover.sum())
+    row.update(dx_m=s.dx, duration_s=s.duration, particles=n_particles, members=members)
     if run_dir is not None:
         folder, ds = run_dir, load_run(run_dir)
         row["reused_run"] = str(run_dir)
@@ -383,6 +413,7 @@ def run_path(
     x, y = np.asarray(ds["x"].values), np.asarray(ds["y"].values)
     prob = np.asarray(ds["release_probability"].values, dtype=float)
     row.update({k: round(v, 4) for k, v in release_metrics(scn, prob, x, y).items()})
+    row.update(terrain_metrics(folder, ds))
     pfts: dict[str, Path] = {"reference": DATA / path / "reference_pft.tif"}
     python = _avaframe_python() if avaframe else None
     if python:

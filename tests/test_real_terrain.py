@@ -16,7 +16,7 @@ from damjax import PSTParams, SlopeSetup, fields, scenario, simulate_slope, snow
 from damjax.core.loop import integrate
 from damjax.core.model import build_slope, make_slope_layout
 from damjax.scenario import slope_fields
-from damjax.slope.simulation import domain_edge_fraction
+from damjax.slope.simulation import arrival_sources, domain_edge_fraction
 
 SLAB = PSTParams(thickness=0.5, tensile_strength=4000.0, softening=1.0)
 
@@ -361,3 +361,12 @@ def test_random_triggers_lie_in_the_start_zone(tmp_path):
         assert inp.start_zone[i, j] and 40.0 <= psi <= 60.0
         starts.append(inp.start)
     assert len(set(starts)) == 4
+
+
+def test_arrival_sources_counts_independent_starts():
+    x, y = np.meshgrid(np.arange(100) * 0.1, np.arange(80) * 0.1, indexing="ij")
+    one = np.hypot(x - 3, y - 4) / 50.0
+    assert arrival_sources(one, 0.1) == 1
+    two = np.minimum(one, np.hypot(x - 8, y - 1) / 50.0 + 0.01)
+    assert arrival_sources(two, 0.1) == 2
+    assert arrival_sources(np.full_like(one, np.inf), 0.1) == 0

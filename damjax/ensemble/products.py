@@ -40,6 +40,7 @@ SUMMARY_KEYS = (
     "domain_edge_fraction",
     "initial_failure_area_m2",
     "outflow_area_m2",
+    "arrival_sources",
 )
 _UNITS = {
     "release_area_m2": ("m2", "area of failed weak layer"),
@@ -66,6 +67,7 @@ _UNITS = {
     "domain_edge_fraction": ("1", "share of the release's boundary on the domain's edge"),
     "initial_failure_area_m2": ("m2", "weak layer failing under its own slab at t = 0"),
     "outflow_area_m2": ("m2", "slab that slid out over the grid's edge"),
+    "arrival_sources": ("1", "sources of the arrival-time map (1: the trigger alone)"),
 }
 
 

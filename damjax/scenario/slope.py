@@ -38,6 +38,12 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     #   (the DEM axis pointing up-slope; y of the release area is that axis turned
     #   90 deg counter-clockwise). Local slope angle and fall direction come from the DEM
     #   gradient; x distances follow the surface along the area's centre line.
+    #   release = "polygon.shp": a release polygon (the DEM's CRS) sets origin, upslope,
+    #   length and width; thickness_field names its thickness attribute ("thickness").
+    #   buffer = 150.0 [m] (default with a polygon): the domain is the terrain within
+    #   this map distance of the polygon, clipped to the DEM (cells without DEM data
+    #   hold no slab); or margin = 10.0 [m]: the rectangle of the polygon plus a margin
+    #   (earlier versions; give one of the two)
 
     [strength]                  # optional (default: kind = "constant", params.tau_peak)
     kind = "grf"                # "constant": tau_peak [Pa] (default params.tau_peak)
@@ -62,16 +68,50 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   variable on dimensions named x/y (or easting/
                                 #   northing, ...); variable = "name" picks it where
                                 #   the file holds several.
+                                # "stability" (2026-11-27): a weak layer that holds its
+                                #   own slab, tau_p = S rho g h0 sin(psi) with each
+                                #   particle's own h0 and psi; S - 1 a log-normal random
+                                #   field, S > 1: mean [-] (> 1, default 1.42, the paper's
+                                #   1000 / 703), cov [-] (default 0.1), length_scale,
+                                #   angle_deg, model, seed, field_dx (as "grf")
+                                # "coulomb" (2026-11-27): tau_p = cohesion [Pa] +
+                                #   friction_coefficient [-] x rho g h0 cos(psi) (both
+                                #   required); std [Pa] > 0 makes the cohesion a random
+                                #   field (length_scale, angle_deg, model, seed, field_dx)
     start_window = [2.0, 8.0]   # optional, any kind: start the crack at the weakest
                                 # (2 m box-smoothed) spot with x in this window and y in
                                 # the middle half of the width (the paper's star),
                                 # instead of setup.start; or [x_min, x_max, y_min, y_max]
+                                # ("stability" and "coulomb": the lowest tau_p / tau_g)
+    natural_release = false     # optional, any kind (2026-11-27): a scenario in which
+                                # the weak layer of a snow-covered cell farther than 2 m
+                                # from the start fails under its own slab at t = 0 stops
+                                # with one line (how many cells, where); true runs it
+    trigger = "weakest"         # optional (2026-11-27): "random" starts the crack at a
+                                # random cell of the start zone ([snow]), drawn with
+                                # strength.seed (an ensemble's members: their own spots)
+
+    [snow]                      # optional (2026-11-27; damjax.snow_cover): the snow cover.
+                                # Without it every cell holds params.thickness
+    kind = "uniform"            # "uniform": params.thickness (or the polygon's)
+                                # "slope_corrected": reference_thickness d0* [m] (default
+                                #   params.thickness) x 0.291 / (sin psi - 0.202 cos psi)
+                                #   (Swiss guidelines; held at 1 below 28 deg)
+                                # "depth_map": file = raster of the vertical snow depth HS
+                                #   [m] (.tif, .asc, .nc; the DEM's CRS): h0 = HS cos(psi)
+    max_slope_deg = 60.0        # [deg], (0, 90]: no slab on steeper cells
+    min_thickness = 0.1         # [m], >= 0: no slab on thinner cells
+    start_min_slope_deg = 28.0  # [deg]: the start zone is the snow in this..max_slope_deg
+    mask = "forest.tif"         # optional raster (the DEM's CRS): nonzero cells hold no
+                                # snow (forest, rock). Cells without snow hold no particle
+                                # (no particle work) and are free edges. Files: DEM only
 
     [output]                    # as for PSTs: dir, plot, snapshots
 
 Validation follows `damjax.scenario`: one line per problem naming the key, the value and
 the valid range; unknown keys are rejected; files are read (and their coverage of the
-release area checked) when the scenario is read.
+release area checked) when the scenario is read. Released slab that slides over the
+grid's edge leaves the run (summary ``outflow_area_m2``).
 """
 
 from __future__ import annotations

@@ -364,6 +364,25 @@ def initial_failures(model: Model) -> Any:
     return model.tau_peak <= model.density * model.thickness * g_t
 
 
+SOURCE_WINDOW_M = 2.0  # [m] the window of `arrival_sources`' local minima
+
+
+def arrival_sources(arrival_time: np.ndarray, dx: float, window_m: float = SOURCE_WINDOW_M) -> int:
+    """How many sources the arrival-time map has: connected groups of released cells whose
+    failure time is the earliest within ``window_m`` around them. A crack that ran from
+    the trigger alone has one (the trigger); every weak spot that failed by itself adds
+    one. 0 when nothing released."""
+    from scipy import ndimage
+
+    t = np.where(np.isfinite(arrival_time), arrival_time, np.inf)
+    if not np.isfinite(t).any():
+        return 0
+    k = 2 * max(1, int(round(0.5 * window_m / dx))) + 1
+    low = np.isfinite(t) & (t <= ndimage.minimum_filter(t, size=k, mode="nearest"))
+    _, n = ndimage.label(low, structure=np.ones((3, 3), bool))
+    return int(n)
+
+
 # share of the released area's boundary on the domain's edge above which a run warns
 DOMAIN_EDGE_WARN = 0.05
 
@@ -624,6 +643,8 @@ def simulate_slope(
         "outflow_area_m2": float(n_out * float(model.area0)),
         # share of the released area's boundary on the domain's edge (None: no release)
         "domain_edge_fraction": edge_frac,
+        # sources of the arrival-time map (1: the trigger alone)
+        "arrival_sources": arrival_sources(cm(t_b, "min"), setup.dx),
         "snow_area_m2": float(xp.size * float(model.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
