@@ -111,7 +111,12 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         names = sorted(ens.params if part == 0 else ens.strength)
         for name in names:
             vals = [member_draws(ens, i)[part][name] for i in idx]
-            units = _param_units(name) if part == 0 else _STRENGTH_UNITS.get(name, "")
+            kind = (ens.scenario.strength or {"kind": "constant"})["kind"]
+            units = (
+                _param_units(name)
+                if part == 0
+                else _KIND_UNITS.get((kind, name), _STRENGTH_UNITS.get(name, ""))
+            )
             data[pre + name] = var(("member",), vals, units, f"drawn {name}")
     stack = lambda f: np.stack([f(r) for r in results])  # noqa: E731
     data["released"] = var(
@@ -163,7 +168,12 @@ _STRENGTH_UNITS = {
     "angle_deg": "degree",
     "trend_deg": "degree",
     "tau_peak": "Pa",
+    "cov": "1",
+    "cohesion": "Pa",
+    "friction_coefficient": "1",
 }
+# per strength kind where a setting's unit differs (a stability ratio's mean)
+_KIND_UNITS = {("stability", "mean"): "1"}
 
 
 def _param_units(name: str) -> str:
