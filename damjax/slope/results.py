@@ -16,7 +16,7 @@ import numpy as np
 from damjax import io
 from damjax.fields.grf import box_sum
 from damjax.params import PSTParams, SlopeSetup
-from damjax.slope.simulation import SlopeResult
+from damjax.slope.simulation import SlopeResult, initial_thickness
 
 
 def crack_speed_map(result: Any, smooth_m: float = 1.0) -> np.ndarray:
@@ -82,7 +82,7 @@ def result_dataset(result: Any, snapshots: bool = True) -> Any:
         "units": "m s-1",
         "long_name": "local crack speed |grad arrival_time|^-1 (1 m box-smoothed)",
     }
-    h0 = float(result.params.thickness)
+    h0 = initial_thickness(result)
     for name, mask, what in (
         ("crown", result.height < 0.98 * h0, "tensile fracture (crown): h < 0.98 h0"),
         ("stauchwall", result.height > 1.02 * h0, "compression (stauchwall): h > 1.02 h0"),
@@ -121,6 +121,8 @@ def load_result(path: str | Path) -> Any:
             "broken": ds["released_snapshots"].values,
         }
     return SlopeResult(
+        thickness=ds["thickness"].values if "thickness" in ds else None,
+        snow=ds["snow"].values.astype(bool) if "snow" in ds else None,
         x=ds["x"].values,
         y=ds["y"].values,
         height=ds["height"].values,

@@ -413,6 +413,14 @@ def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None)
     return edge / total if total else 0.0
 
 
+def initial_thickness(result: Any) -> Any:
+    """A slope result's initial slab thickness h0 [m]: its (nx, ny) map (0 where no snow
+    lies), or ``params.thickness`` for results written before 2026-11-27."""
+    if getattr(result, "thickness", None) is not None:
+        return np.asarray(result.thickness, dtype=float)
+    return float(result.params.thickness)
+
+
 def _ratio_or_none(v: float, cs: float) -> float | None:
     return v / cs if math.isfinite(v) else None
 
