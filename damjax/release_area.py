@@ -4,7 +4,9 @@ A release area (a polygon file: shapefile, GeoJSON, GeoPackage; one or more poly
 DEM becomes the rectangle a slope run simulates: its x axis points up-slope along one DEM
 axis (the one closest to the mean up-slope direction over the polygon, or the one given),
 its y axis 90 deg counter-clockwise from it, and the rectangle spans the polygon plus a
-margin [m] on every side. The DEM's CRS is kept: the polygon's CRS must be the DEM's (no
+buffer [m] on every side, clipped to the DEM; the domain is the terrain within the buffer
+(`ReleaseArea.domain_mask`; without a buffer: the whole rectangle of the polygon plus a
+margin, as in earlier versions). The DEM's CRS is kept: the polygon's CRS must be the DEM's (no
 reprojection; a mismatch is an error naming both). The slab thickness is the polygon's
 thickness attribute (AvaFrame's ``thickness`` convention; several polygons must agree), and
 the crack starts at the weakest spot of the weak layer inside the polygon.
