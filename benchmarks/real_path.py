@@ -2,10 +2,10 @@
 
 For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
 
-1. damjax runs the shipped scenario ``real-path-ava<path>`` (the documented release polygon
-   plus 10 m on its DEM, slab thickness from the polygon, GRF weak layer, dx 0.46 m, the
-   coarsest the model accepts) as an ensemble of ``--members`` GRF seeds (``--members 1``:
-   a single run, seed 0);
+1. damjax runs the shipped scenario ``real-path-ava<path>`` (the terrain within 150 m of
+   the documented release polygon on its DEM, no slab above 60 deg, slab thickness from
+   the polygon, a stability-ratio weak layer, dx 0.46 m, the coarsest the model accepts)
+   as an ensemble of ``--members`` seeds (``--members 1``: a single run, seed 0);
 2. the release (cells released in >= half the members) against the documented polygon:
    area ratio, overlap (intersection over union), recall / precision, crown position
    relative to the polygon's upper edge along the surface;
@@ -24,10 +24,10 @@ For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
     python -m benchmarks.real_path --path avaKot --run-dir DIR  # reuse a run / ensemble
     python benchmarks/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
 
-Cost on the 2-core development machine (shared, 2026-11-26): about 5e5 particle-steps/s,
-so a member of avaKot (1.9e5 particles, 3 s, 1800 steps) takes ~12 min, of avaAlr
-(4.3e5 particles, 4 s, 2400 steps) ~35 min; 16 members are hours per path there
-(docs/guide/real-path.md has what was run).
+Cost on the 2-core development machine (shared, 2026-11-27): one avaAlr member (1.31e6
+particles, 4 s, 2800 steps) took 25 min (about 15 min on a quiet machine), an avaKot
+member (1.0e6 particles, 3 s) about three quarters of that; 16 members are hours per path
+there (docs/guide/real-path.md has what was run).
 """
 
 from __future__ import annotations
