@@ -155,22 +155,13 @@ def _prepare(scn: Scenario) -> tuple[Any, Any, Any, Any]:
 
     ensure_x64(scn.setup.dtype)
     if scn.type == "slope":
-        from damjax.core.model import build_slope, make_slope_layout
+        from damjax.core.model import make_slope_layout
         from damjax.scenario.slope_fields import resolve_inputs
         from damjax.slope import simulation as slope
 
         inp = resolve_inputs(scn)
-        setup = dataclasses.replace(scn.setup, start=inp.start)
-        layout = make_slope_layout(scn.params, setup, inp.max_slope_deg)
-        model, state, _, _ = build_slope(
-            scn.params,
-            setup,
-            layout,
-            inp.slope_deg,
-            inp.tau_peak,
-            inp.fall_deg,
-            **inp.snow_kwargs(),
-        )
+        layout = make_slope_layout(scn.params, scn.setup, inp.max_slope_deg)
+        model, state = inp.build(scn, layout)
         return slope, layout, model, state
     layout = pst.make_layout(scn.params, scn.setup)
     model, state = pst.build(scn.params, scn.setup, layout)

@@ -26,7 +26,7 @@ from damjax.core.loop import (
     peak_bytes,
     run_chunk,
 )
-from damjax.core.model import build_slope, make_slope_layout
+from damjax.core.model import make_slope_layout
 from damjax.ensemble.plot import plot_ensemble
 from damjax.ensemble.products import (
     ENSEMBLE_FILE,
@@ -96,17 +96,8 @@ def _build_members(ens: Ensemble, idx: list[int], layout: Any) -> tuple[Any, Any
     for i in idx:
         scn = member_scenario(ens, i)
         inp = _resolve(scn)
-        setup = dataclasses.replace(scn.setup, start=inp.start)
-        ensure_x64(setup.dtype)
-        m, s, _, _ = build_slope(
-            scn.params,
-            setup,
-            layout,
-            inp.slope_deg,
-            inp.tau_peak,
-            inp.fall_deg,
-            **inp.snow_kwargs(),
-        )
+        ensure_x64(scn.setup.dtype)
+        m, s = inp.build(scn, layout)
         models.append(m)
         states.append(s)
         scns.append(scn)

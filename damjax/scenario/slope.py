@@ -211,11 +211,6 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "stability": {
         "mean": ("float", (lambda v: v > 1 and math.isfinite(v), "(1, inf)"), ""),
         "cov": ("float", _NONNEG, ""),
-        "length_scale": ("floats", _POS, "m"),
-        "angle_deg": ("float", _ANY, "deg"),
-        "model": ("str", COVARIANCE_MODELS, ""),
-        "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
-        "field_dx": ("float", _POS, "m"),
     },
     # "coulomb": tau_p = cohesion + friction_coefficient x rho g h0 cos(psi); the cohesion
     # a constant or (std > 0) a Gaussian random field as "grf"'s
@@ -223,13 +218,16 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "cohesion": ("float", _NONNEG, "Pa"),
         "friction_coefficient": ("float", _NONNEG, ""),
         "std": ("float", _NONNEG, "Pa"),
-        "length_scale": ("floats", _POS, "m"),
-        "angle_deg": ("float", _ANY, "deg"),
-        "model": ("str", COVARIANCE_MODELS, ""),
-        "seed": ("int", (lambda v: v >= 0, "integers >= 0"), ""),
-        "field_dx": ("float", _POS, "m"),
     },
 }
+# the random field's correlation, as "grf"'s, for the kinds of 2026-11-27
+for _kind in ("stability", "coulomb"):
+    _STRENGTH_KEYS[_kind].update(
+        {
+            k: _STRENGTH_KEYS["grf"][k]
+            for k in ("length_scale", "angle_deg", "model", "seed", "field_dx")
+        }
+    )
 _STRENGTH_COMMON = {
     "start_window": ("window", _NONNEG, "m"),
     # a run in which a snow-covered cell outside the trigger fails under its own slab at

@@ -205,6 +205,23 @@ class SlopeInputs:
         """`damjax.simulate_slope`'s keywords beyond the slope, strength and fall maps."""
         return {**self.snow_kwargs(), "domain": self.domain}
 
+    def build(self, scn: Any, layout: Any) -> tuple[Any, Any]:
+        """(model, initial state) of scenario ``scn`` on ``layout``, started at
+        `start` (`damjax.core.model.build_slope` with these inputs)."""
+        from damjax.core.model import build_slope
+
+        setup = dataclasses.replace(scn.setup, start=self.start)
+        model, state, _, _ = build_slope(
+            scn.params,
+            setup,
+            layout,
+            self.slope_deg,
+            self.tau_peak,
+            self.fall_deg,
+            **self.snow_kwargs(),
+        )
+        return model, state
+
     @property
     def max_slope_deg(self) -> float:
         """The steepest snow-covered cell [deg] (it sets the layout's padding)."""
@@ -405,8 +422,6 @@ def _resolve(scn: Any) -> SlopeInputs:
         except ValueError as exc:  # field_dx coarser than the correlation allows
             raise _FieldProblem(f"strength.{exc}") from None
         if st["kind"] == "coulomb":
-            if float(g["std"]) == 0.0:
-                tau = np.full((x.size, y.size), mean)
             wl_friction = float(st["friction_coefficient"])
             sigma_n = float(params.density) * G_ACC * h_cells * np.cos(np.radians(slope))
             if not np.all(tau + wl_friction * sigma_n > 0):
