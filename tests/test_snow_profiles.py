@@ -234,7 +234,7 @@ def test_cli_pst_runs_a_profile(capsys, path, extra, expect):
         float(theory.shear_wave_speed(params)), rel=1e-6
     )
     assert summary["critical_cut_length_theory_m"] == pytest.approx(
-        float(theory.critical_cut_length(params)), rel=1e-6
+        float(theory.pst_critical_cut_length(params)), rel=1e-6
     )
     assert summary["n_steps"] > 0 and summary["fault"] is None
     assert f"damjax: profile {path}: thickness = " in err
@@ -315,5 +315,5 @@ def test_scenario_profile_table(tmp_path, capsys):
     rc, out, err = _cli(capsys, "run", str(path), "--out", str(tmp_path / "run"), "--json")
     assert rc == 0, err
     assert json.loads(out)["critical_cut_length_theory_m"] == pytest.approx(
-        float(theory.critical_cut_length(scn.params)), rel=1e-6
+        float(theory.pst_critical_cut_length(scn.params)), rel=1e-6
     )
