@@ -283,10 +283,10 @@ def summarize(
         else float(theory.pst_critical_cut_length(p, s.lateral))
     )
     return {
-        "crack_front": front,
         "lateral": s.lateral,
         "controlled": bool(s.controlled),
         "arrested": arrested,
+        "crack_front": front,
         "arrest_position_m": _none(l_ca),
         "arrest_length_m": _none(l_ca - lss) if arrested and not profiled else None,
         "arrest_time_s": _none(t_stop) if arrested else None,

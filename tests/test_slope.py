@@ -820,14 +820,15 @@ def test_crack_speed_map_is_exact_for_plane_and_radial_fronts_up_to_the_edges():
     angle = np.radians(30.0)
     t = (X * np.cos(angle) + Y * np.sin(angle)) / 90.0
     t[X > 15.0] = np.inf  # intact beyond the front
-    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y))
+    p = PSTParams()  # c_p = 132 m/s: both fronts are slower
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y, params=p))
     released = np.isfinite(t)
     assert np.all(np.isnan(v[~released]))
     np.testing.assert_allclose(v[released], 90.0, rtol=1e-6)
     # a radial front from a corner: the speed is exact wherever the front is locally
     # straight over the 1 m window (away from the start itself)
     r = np.hypot(X, Y)
-    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y))
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y, params=p))
     far = r > 5.0
     np.testing.assert_allclose(v[far], 60.0, rtol=0.01)
 

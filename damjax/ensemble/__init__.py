@@ -8,7 +8,7 @@ release area and of the up-slope arrest distance (5 %, 50 %, 95 % quantiles)::
 
     ens = damjax.ensemble.load("slope-generic-50x60", members=32)
     ds = damjax.ensemble.run(ens, "out/fig12a-ensemble")
-    ds["release_probability"].plot()
+    ds["release_probability"].plot()              # then plt.savefig(...) in a script
 
 or ``damjax ensemble slope-generic-50x60 --members 32 --out out/fig12a-ensemble``.
 

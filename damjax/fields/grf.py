@@ -193,8 +193,8 @@ def grf(
     jittable with `shape`, `dx`, `model`, `floor` and `embed_shape` static; when
     `length_scale` is traced, pass `embed_shape`. With concrete arguments the transforms
     run on the host in numpy (the same bits on every call, whatever else runs: XLA:CPU's
-    FFT is not, see `_grf_host`); traced ones run in XLA and agree to rounding. Draw many samples with
-    ``jax.vmap(lambda k: grf(k, ...))(jax.random.split(key, n))``.
+    FFT is not, see `_grf_host`); traced ones run in XLA and agree to rounding. Draw many
+    samples with ``jax.vmap(lambda k: grf(k, ...))(jax.random.split(key, n))``.
 
     Args:
         key: JAX PRNG key (the seed).
