@@ -29,6 +29,7 @@ def test_power_law_fit_rejects_bad_data():
         calibrate.fit_power_law([1.0, 2.0], [1.0, 2.0])
 
 
+@pytest.mark.min_versions
 def test_inversion_recovers_a_known_strength_gradient():
     setup = PSTSetup(length=10.0, dx=0.05, duration=0.5, chunk_steps=250)
     truth = PSTParams(steady_length=4.0, strength_gradient=800.0, softening=1.0)

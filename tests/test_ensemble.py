@@ -263,6 +263,7 @@ def test_a_grown_ensemble_runs_only_its_new_members(full_run, tmp_path):
     assert "members_00003-00004.nc" in {p.name for p in (grown / ensemble.SLICE_DIR).iterdir()}
 
 
+@pytest.mark.min_versions
 def test_ensembles_repeat_bit_for_bit_on_two_host_devices(tiny, tmp_path):
     """The same ensemble run twice by separate processes on a CPU host split into 2
     devices writes the same ensemble.nc, and each member is its single run, bit for bit

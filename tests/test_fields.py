@@ -106,6 +106,7 @@ def test_grf_reproducible_with_seed():
     assert float(jnp.max(jnp.abs(a - c))) > 10.0
 
 
+@pytest.mark.min_versions
 def test_grf_sample_does_not_depend_on_the_precision_mode():
     # a float64 run (or anything that enables jax_enable_x64 in the session) must see the
     # same field for the same seed as a float32 run, to rounding (the white noise is drawn
@@ -165,6 +166,7 @@ def test_grf_gradients_are_finite_and_match_finite_differences():
     assert np.isfinite(float(g))
 
 
+@pytest.mark.min_versions
 def test_grf_jit_needs_embed_shape_for_traced_lengths():
     key = jax.random.key(0)
     shape = (25, 30)

@@ -61,6 +61,7 @@ def test_elastic_brittle_crack_arrests_only_above_the_runaway_gradient(factor, a
         assert r.summary["final_tip_m"] > 39.0
 
 
+@pytest.mark.min_versions
 def test_self_propagating_crack_reaches_strip_wave_speed():
     r = simulate_pst(
         PSTParams(strength_gradient=0.0),
@@ -247,6 +248,7 @@ def test_no_arrest_without_a_self_propagating_crack():
     assert r.summary["crack_front"] == "sawn_only"
 
 
+@pytest.mark.min_versions
 @pytest.mark.parametrize("theta", [150.0, 250.0, 400.0])
 def test_critical_cut_length_beyond_the_steady_length(theta):
     """L_ss 0.3 m, below the uniform layer's a_c (0.98 m): the cut meets the rising

@@ -60,6 +60,7 @@ def quiet_parse(doc: dict, **kw) -> scenario.Scenario:
 # --------------------------------------------------------------------------- physics
 
 
+@pytest.mark.min_versions
 def test_plane_strip_reproduces_the_1d_pst_arrest():
     """A 12 m x 0.6 m strip on a uniform plane, sawn from its lower edge, arrests where the
     1D PST (free lateral condition) does, with the same critical cut length."""
@@ -248,6 +249,7 @@ def test_acceptance_scenario_is_the_issue_5_case():
     assert weak_spot(FIG12B, tau_b) == pytest.approx(start_b)
 
 
+@pytest.mark.min_versions
 def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
     out = tmp_path / "q"
     assert main(["run", "slope-quick", "--out", str(out), "--json", "--quiet"]) == 0
