@@ -266,7 +266,7 @@ def test_a_grown_ensemble_runs_only_its_new_members(full_run, tmp_path):
 @pytest.mark.min_versions
 def test_ensembles_repeat_bit_for_bit_on_two_host_devices(tiny, tmp_path):
     """The same ensemble run twice by separate processes on a CPU host split into 2
-    devices writes the same ensemble.nc, and each member is its single run, bit for bit
+    devices writes the same ensemble.nc, bit for bit, and each member is its single run
     (the strength fields were drawn with XLA's FFT, which on such a host rounded
     differently while other work ran: tau_peak differed by a float32 step in 2 runs of 2,
     2026-11-27)."""
@@ -302,10 +302,13 @@ def test_ensembles_repeat_bit_for_bit_on_two_host_devices(tiny, tmp_path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             r = slope_fields.simulate(ensemble.member_scenario(ens, i))
-        at = np.where(np.isfinite(r.arrival_time), r.arrival_time, np.nan).astype(np.float32)
-        np.testing.assert_array_equal(a["arrival_time"].values[i], at)
-        np.testing.assert_array_equal(a["height"].values[i], r.height.astype(np.float32))
+        # the member's input is the single run's, bit for bit; its results come from
+        # another compiled program (vmapped, sharded), equal bit for bit with jax 0.10.2
+        # and to one float32 step in one of 800 cells with jax 0.8.0 (2026-11-27)
         np.testing.assert_array_equal(a["tau_peak"].values[i], r.tau_peak.astype(np.float32))
+        at = np.where(np.isfinite(r.arrival_time), r.arrival_time, np.nan).astype(np.float32)
+        np.testing.assert_array_max_ulp(a["arrival_time"].values[i], at, maxulp=1)
+        np.testing.assert_array_max_ulp(a["height"].values[i], r.height.astype(np.float32), 1)
 
 
 def test_a_second_run_into_a_folder_in_use_is_refused(tiny, tmp_path):
