@@ -77,8 +77,11 @@ class SlopeResult:
         slope_deg: (nx, ny) local slope angle psi [deg].
         snapshots: per chunk: ``time`` [s], the height map [m] and the broken map (0/1).
         summary: diagnostics by name, units in the key (``release_area_m2``,
-            ``upslope_arrest_distance_m``, ``wall_time_s``, ...). ``release_area_m2``
-            counts every failed cell, the saw's cut included (``sawn_area_m2``); where
+            ``upslope_extent_m``, ``wall_time_s``, ...); the slopes guide's "The summary"
+            explains every key. ``upslope_front`` and ``crossslope_front`` say what the
+            fronts did ("arrested", "reached_edge", "moving", "sawn_only"); the arrest
+            distances are None unless that front arrested. ``release_area_m2`` counts
+            every failed cell, the saw's cut included (``sawn_area_m2``); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
             release is the cut (a warning says so).
         setup: the `SlopeSetup` that was run.
