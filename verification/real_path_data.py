@@ -6,7 +6,7 @@ AvaFrame's own com1DFA reference (``benchmarks/ava*NullTest``, peak flow thickne
 plus a 150 m margin, stored as a float32 GeoTIFF (deflate) in the DEM's CRS; the release
 polygon (``Inputs/REL``), the thalweg and the reference peak flow thickness (same crop).
 
-    python benchmarks/real_path_data.py AVAFRAME_CHECKOUT [--commit SHA]
+    python verification/real_path_data.py AVAFRAME_CHECKOUT [--commit SHA]
 """
 
 from __future__ import annotations

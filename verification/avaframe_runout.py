@@ -11,13 +11,13 @@
    current interpreter if it imports avaframe;
 4. a figure of the DEM, the release zone and the peak flow thickness, and one JSON line.
 
-    DAMJAX_AVAFRAME_PYTHON=~/ava/bin/python python -m benchmarks.avaframe_runout
-    python -m benchmarks.avaframe_runout --run-dir damjax-out/slope-dem-gully  # reuse a run
-    python benchmarks/avaframe_runout.py --com1dfa AVADIR   # step 3 only (AvaFrame's env)
+    DAMJAX_AVAFRAME_PYTHON=~/ava/bin/python python -m verification.avaframe_runout
+    python -m verification.avaframe_runout --run-dir damjax-out/slope-dem-gully  # reuse a run
+    python verification/avaframe_runout.py --com1dfa AVADIR   # step 3 only (AvaFrame's env)
 
 Measured (2026-11-25, 2-core Xeon shared with other jobs, AvaFrame 2.1): damjax 51 s,
 com1DFA 45 s, one zone of 385 m^2 (map), 0.49 m thick, runout 7600 m^2 reaching 268 m
-below the release; the JSON line in ``benchmarks/avaframe_runout_results.jsonl``, the
+below the release; the JSON line in ``results/avaframe_runout.jsonl``, the
 figure ``docs/images/avaframe_runout.png`` and docs/guide/profiles-gis.md.
 """
 
@@ -33,7 +33,7 @@ from pathlib import Path
 
 SCENARIO = "slope-dem-gully"
 FIGURE = Path(__file__).resolve().parents[1] / "docs" / "images" / "avaframe_runout.png"
-RESULTS = Path(__file__).resolve().parent / "avaframe_runout_results.jsonl"
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "avaframe_runout.jsonl"
 
 
 def run_com1dfa(avadir: str) -> dict:

@@ -1,15 +1,15 @@
-"""Figures of the documentation: ``python -m benchmarks figures`` draws every PNG under
+"""Figures of the documentation: ``python -m verification.figures`` draws every PNG under
 ``docs/images/`` (about 5 min on 2 CPU cores).
 
-    python -m benchmarks figures                  # all of them
-    python -m benchmarks.figures pst_elastic      # some (names: --list)
+    python -m verification.figures                  # all of them
+    python -m verification.figures pst_elastic      # some (names: --list)
 
 Each figure is damjax's version of a paper figure or of a user-guide plot, drawn from the
-benchmark rows already stored in ``benchmarks/*.jsonl`` and ``benchmarks/results_*`` where
-they exist, and otherwise from small runs whose size (dx, length, duration) the figure
-states. The paper's values are marked where the paper gives numbers. Every figure carries
-a footer with the command, the date and the commit it was drawn at, and
-``docs/images/figures.json`` records the same with each figure's run time.
+rows already stored in ``results/`` where they exist, and otherwise from small runs whose
+size (dx, length, duration) the figure states. The paper's values are marked where the
+paper gives numbers. Every figure carries a footer with the command, the date and the
+commit it was drawn at, and ``docs/images/figures.json`` records the same with each
+figure's run time.
 """
 
 from __future__ import annotations
@@ -28,10 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.cases import git_commit
+
 ROOT = Path(__file__).resolve().parent.parent
-BENCH = ROOT / "benchmarks"
 OUT = ROOT / "docs" / "images"
-COMMAND = "python -m benchmarks figures"
+COMMAND = "python -m verification.figures"
 DPI = 100
 WIDTH = 8.0  # [in] at DPI 100: 800 px, the width of a page's text column
 FIGURES: dict[str, Callable[[], str]] = {}
@@ -42,17 +43,11 @@ def figure(fn: Callable[[], str]) -> Callable[[], str]:
     return fn
 
 
-def _commit() -> str:
-    try:
-        rev = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
-        ).stdout.strip()
-    except OSError:  # pragma: no cover - no git
-        rev = ""
-    return rev or "unknown"
-
-
-STAMP = {"command": COMMAND, "date": datetime.date.today().isoformat(), "commit": _commit()}
+STAMP = {
+    "command": COMMAND,
+    "date": datetime.date.today().isoformat(),
+    "commit": git_commit() or "unknown",
+}
 
 
 def _plt():
@@ -83,7 +78,7 @@ def _save(fig, name: str, note: str) -> str:
 
 
 def _rows(path: str | Path) -> list[dict]:
-    with open(BENCH / path) as fh:
+    with open(ROOT / path) as fh:
         return [json.loads(line) for line in fh if line.strip()]
 
 
@@ -271,7 +266,7 @@ def inversion() -> str:
     plt = _plt()
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(WIDTH, 3.6))
     fig.subplots_adjust(left=0.09, right=0.98, top=0.86, bottom=0.2, wspace=0.3)
-    for row in _rows("inversion_brittle_results.jsonl"):
+    for row in _rows("results/inversion_brittle.jsonl"):
         if row["case"] == "inversion_brittle":
             ax0.semilogy(
                 row["loss_history"],
@@ -280,9 +275,7 @@ def inversion() -> str:
             )
     ax0.set_xlabel("Adam iteration")
     ax0.set_ylabel("misfit")
-    ax0.set_title(
-        "theta from 3 arrests (truth 600 Pa/m)\nbenchmarks/inversion_brittle_results.jsonl"
-    )
+    ax0.set_title("theta from 3 arrests (truth 600 Pa/m)\nresults/inversion_brittle.jsonl")
     ax0.legend()
     setup = PSTSetup(length=30.0, dx=0.04, duration=1.2)
     truth = dict(softening=1.0, steady_length=10.0, strength_gradient=300.0)
@@ -314,7 +307,7 @@ def inversion() -> str:
 def weac() -> str:
     """Critical cut length: damjax theory and PST against weac (stored rows)."""
     plt = _plt()
-    rows = _rows("weac_crosscheck_results.jsonl")
+    rows = _rows("results/weac_crosscheck.jsonl")
     labels = [
         f"h {r['thickness_m']:g}\nE {r['youngs_modulus_pa'] / 1e6:g}\npsi {r['slope_deg']:g}"
         for r in rows
@@ -331,7 +324,7 @@ def weac() -> str:
     ax.set_xlabel("slab: h [m], E [MPa], slope psi [deg]", labelpad=2)
     ax.set_title("Critical cut length against weac 2.6 (matched toughness, no friction)")
     ax.legend()
-    return _save(fig, "weac", "rows: benchmarks/weac_crosscheck_results.jsonl")
+    return _save(fig, "weac", "rows: results/weac_crosscheck.jsonl")
 
 
 @figure
@@ -341,7 +334,7 @@ def slopes() -> str:
 
     plt = _plt()
     rows = [
-        r for r in _rows("slope_acceptance_results.jsonl") if r.get("case") == "slope_acceptance"
+        r for r in _rows("results/slope_acceptance.jsonl") if r.get("case") == "slope_acceptance"
     ]
     fig, (ax0, ax1) = plt.subplots(
         1, 2, figsize=(WIDTH, 4.2), gridspec_kw={"width_ratios": [1.15, 1]}
@@ -384,7 +377,7 @@ def slopes() -> str:
 def slope_calibration() -> str:
     """Slope calibration iterates of sigma_t (stored rows), truth 4 kPa."""
     plt = _plt()
-    rows = _rows("results_slab_fracture/slope_calibration_crack_band.jsonl")
+    rows = _rows("results/slab_fracture/slope_calibration_crack_band.jsonl")
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(WIDTH, 3.6))
     fig.subplots_adjust(left=0.09, right=0.98, top=0.88, bottom=0.2, wspace=0.28)
     runs = [r for r in rows if r["case"] == "slope_calibration"]
@@ -410,7 +403,7 @@ def slope_calibration() -> str:
     return _save(
         fig,
         "slope_calibration",
-        "rows: benchmarks/results_slab_fracture/slope_calibration_crack_band.jsonl",
+        "rows: results/slab_fracture/slope_calibration_crack_band.jsonl",
     )
 
 

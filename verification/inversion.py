@@ -1,8 +1,8 @@
 """Joint inversion of the weak-layer softening delta and the slab tensile
 strength sigma_t from noisy observed arrest positions, through the solver.
 
-    python -m benchmarks.inversion                  # defaults below, a few minutes on 1 core
-    python -m benchmarks.inversion --steps 20       # shorter descent
+    python -m verification.inversion                  # defaults below, a few minutes on 1 core
+    python -m verification.inversion --steps 20       # shorter descent
 
 Observations (honest: another grid, event-based, noisy): PSTs with the true parameters
 (delta = 1, sigma_t = 6 kPa, elasto-plastic slab) at several strength gradients theta,

@@ -5,7 +5,7 @@ with position, time and opening, crack-speed change per fracture, wall time), th
 summary line per (case, theta) comparing the grids seed by seed: the same fracture count on
 every grid and positions within 0.5 m.
 
-    python -m benchmarks.slab_fracture_acceptance --theta 150 30 --seeds 0 1 2 3 4 \
+    python -m verification.slab_fracture_acceptance --theta 150 30 --seeds 0 1 2 3 4 \
         --dx 0.04 0.02 0.01 > slab_fracture.jsonl
 
 Defaults: sigma_t 6 kPa with the setup's default p0 rule (``p0_rule = "paper"``, the
@@ -15,9 +15,10 @@ coefficient of variation and correlation length (`damjax.materials.slab_fracture
 ``--fracture-energy``, ``--strength-cov`` and ``--strength-length`` override them.
 
 Measured 2026-11-25 at commit 1137f3f (the energy-consistent crack-band return map; idle
-2-core machine; JSON lines in results_slab_fracture/: grid_dx004_002, grid_dx001,
+2-core machine; JSON lines in results/slab_fracture/: grid_dx004_002, grid_dx001,
 insitu_jbc_dx004, insitu_jbc_dx002, lowest_theta_delta1; the runs of commit 2de2a48, before
-it, are in results_slab_fracture/explicit_softening_2de2a48/):
+it, are in the repository at commit d3d86c8, in
+benchmarks/results_slab_fracture/explicit_softening_2de2a48/):
 
 Mean arrest [m] (range) and fractures per run on dx 0.04 / 0.02 / 0.01, seeds 0-4:
 
@@ -35,11 +36,12 @@ released slab (docs/model/slab.md). Run time per 100 m PST (3 s): 5-11 s on dx 0
 on 0.02, 73-86 s on 0.01.
 
 What the paper's arrests would need, measured 2026-11-25 at commit faa1829 on dx 0.04
-(results_slab_fracture/gf_cov_scan.jsonl, gf_cov_grids.jsonl, sigma_t_sensitivity.jsonl;
+(results/slab_fracture/gf_cov_scan.jsonl, gf_cov_grids.jsonl, sigma_t_sensitivity.jsonl;
 docs/model/slab.md): 94 m at theta 30 needs CoV 0 and G_f >= 50 J/m^2 (35.2 / 94.7 m); with
 CoV 0.2 no G_f up to 250 J/m^2 passes 68.8 m (the weakest section of the field caps the
-force the slab carries, `benchmarks.slab_weakest_link`). sigma_t moved by 1-2 % adds or
-removes a fracture in one seed of three while every arrest moves by at most 0.6 m.
+force the slab carries, results/slab_fracture/weakest_link_gf250.jsonl). sigma_t moved by
+1-2 % adds or removes a fracture in one seed of three while every arrest moves by at most
+0.6 m.
 """
 
 from __future__ import annotations

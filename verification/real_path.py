@@ -17,12 +17,12 @@ For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
    runout length along the thalweg (``path_aimec``, from its upper end) and overlap of the
    areas with peak flow thickness > 1 cm;
 5. a figure per path (``docs/images/real_path_<path>.png``) and one JSON line per path
-   (printed, appended to ``benchmarks/real_path_results.jsonl``).
+   (printed, appended to ``results/real_path.jsonl``).
 
-    python -m benchmarks real_path                      # both paths, 16 members
-    python -m benchmarks.real_path --path avaKot --members 1
-    python -m benchmarks.real_path --path avaKot --run-dir DIR  # reuse a run / ensemble
-    python benchmarks/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
+    python -m verification.real_path                      # both paths, 16 members
+    python -m verification.real_path --path avaKot --members 1
+    python -m verification.real_path --path avaKot --run-dir DIR  # reuse a run / ensemble
+    python verification/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
 
 Cost on the 2-core development machine (shared, 2026-11-26): about 5e5 particle-steps/s,
 so a member of avaKot (1.9e5 particles, 3 s, 1800 steps) takes ~12 min, of avaAlr
@@ -45,7 +45,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "damjax" / "data" / "paths"
 IMAGES = ROOT / "docs" / "images"
-RESULTS = Path(__file__).resolve().parent / "real_path_results.jsonl"
+RESULTS = ROOT / "results" / "real_path.jsonl"
 PATHS = ("avaAlr", "avaKot")
 PFT_MIN = 0.01  # [m] runout footprint: peak flow thickness above 1 cm
 

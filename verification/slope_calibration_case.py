@@ -16,7 +16,7 @@ The synthetic field case (small, so it runs in minutes on 2 cores):
 - calibration: dx 0.125 m (`--dx`), 1 particle per cell, sigma_t from `--start` (2.5 kPa)
   by `damjax.calibrate.slope.calibrate_slope` (the lowest-loss evaluated iterate).
 
-    python -m benchmarks.slope_calibration_case [--start 2500] [--steps 12] [--dx 0.125]
+    python -m verification.slope_calibration_case [--start 2500] [--steps 12] [--dx 0.125]
         [--fine-dx 0.0625] [--fracture-energy 1.0]
 
 Prints JSON lines: the reference run, each iteration, and the result with the relative
@@ -35,7 +35,7 @@ and iterates to 1 Pa, the estimate 3817.9 Pa (-4.55 %) at iteration 5; 12 min 30
 
 Measured with the crack-band slab (`--slab-fracture crack_band`: its own G_f 0.12 J/m^2 and
 the same seeded tensile-strength field on both grids; 2026-11-25, commit 02ee6cc; JSON lines
-in results_slab_fracture/slope_calibration_crack_band.jsonl): the reference releases
+in results/slab_fracture/slope_calibration_crack_band.jsonl): the reference releases
 43.5 m^2, arrest 3.45 m up-slope of the start. From 2500 Pa, 12 Adam steps: 2500 -> 2262 ->
 ... -> 2901 Pa (loss 0.043 -> 0.027, still falling; the first gradient points away from
 the truth): -27.5 %, not within 10 %. Restarted from 2901 Pa (`--start 2901 --steps 20`,

@@ -3,7 +3,7 @@
 GRF seeds, as ``damjax ensemble slope-generic-50x60 --members 32`` runs it, and a set of
 its members run again one by one with `damjax.scenario.slope_fields.simulate`.
 
-    python -m benchmarks.fig12a_ensemble [--members 32] [--check 0 7 15 31] [--out DIR]
+    python -m verification.fig12a_ensemble [--members 32] [--check 0 7 15 31] [--out DIR]
 
 Prints one JSON line per part: ``fig12a_ensemble`` (quantiles of the release area and of
 the up-slope arrest distance, the mean release probability, timings, peak RSS) and
@@ -30,7 +30,7 @@ def _peak_rss_mb() -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmarks.fig12a_ensemble")
+    p = argparse.ArgumentParser(prog="python -m verification.fig12a_ensemble")
     p.add_argument("--members", type=int, default=32)
     p.add_argument("--check", type=int, nargs="*", default=[0, 7, 15, 31])
     p.add_argument("--out", default="out/fig12a-ensemble")

@@ -1,9 +1,9 @@
 """Acceptance sweep: a sweep like the paper's Fig. 9 (elasto-plastic slab, softening 1),
 and the two Fig. 8 cases with the non-default lateral condition.
 
-    python -m benchmarks.fig9_sweep                    # sweep at dx 0.04 m + dx 0.02 check
-    python -m benchmarks.fig9_sweep --fig8             # only the two Fig. 8 cases
-    python -m benchmarks.fig9_sweep --small            # a few members, 40 m (smoke test)
+    python -m verification.fig9_sweep                    # sweep at dx 0.04 m + dx 0.02 check
+    python -m verification.fig9_sweep --fig8             # only the two Fig. 8 cases
+    python -m verification.fig9_sweep --small            # a few members, 40 m (smoke test)
 
 The sweep varies one parameter at a time around the paper's elasto-plastic baseline
 (sigma_t = 6 kPa, E = 4 MPa, L_ss = 20 m, delta = 1, 100 m PST), at a low and a high

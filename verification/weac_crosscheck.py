@@ -27,7 +27,7 @@ Matched inputs, for every row:
 
 One JSON line per row, then a markdown table:
 
-    python -m benchmarks.weac_crosscheck > benchmarks/weac_crosscheck_results.jsonl
+    python -m verification.weac_crosscheck > results/weac_crosscheck.jsonl
 
 Measured (2026-11-25, 2 shared CPU cores, weac 2.6.4): docs/verification/weac.md.
 """
