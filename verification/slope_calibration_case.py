@@ -1,4 +1,4 @@
-"""Deliverable 8 acceptance: recover the slab tensile strength from a release zone.
+"""Slope calibration: recover the slab tensile strength from a release zone.
 
 The synthetic field case (small, so it runs in minutes on 2 cores):
 
