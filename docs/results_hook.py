@@ -9,8 +9,9 @@ and the build puts there the field ``arrest_position_m`` of the one row of
 ``results/pst.jsonl`` whose fields equal the other keywords (here ``case`` and
 ``lateral``). Options, not row filters: ``digits`` (decimals), ``scale`` (a factor, 100
 for a percentage), ``sign`` (a leading ``+`` on positive values), ``none`` (the text for
-a null value, e.g. "runs through"). An unknown file, field or option, a filter that
-matches no row or several, or any ``{{`` left over stops the build.
+a null value, e.g. "runs through"), ``index`` (an item of a list value). An unknown file
+or field, a filter that matches no row or several, or any ``{{`` left over stops the
+build.
 
 README.md is read without a build: there a figure is written out, followed by the same
 call in an HTML comment, ``66.9<!-- result("pst", ...) -->`` (text with spaces in
@@ -28,7 +29,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "results"
-OPTIONS = ("digits", "scale", "sign", "none")
+OPTIONS = ("digits", "scale", "sign", "none", "index")
 MARKER = re.compile(r"\{\{\s*(.*?)\s*\}\}")
 # a figure written out in README.md (a word, or any text in backticks) and the call it
 # must equal
@@ -54,7 +55,7 @@ def rows(name: str) -> list[dict]:
     return _cache[path][1]
 
 
-def result(name: str, field: str, **keys: Any) -> str:
+def result(name: str, field: str, /, **keys: Any) -> str:
     """The formatted value of ``field`` in the one row of ``name`` matching ``keys``."""
     opts = {k: keys.pop(k) for k in OPTIONS if k in keys}
     found = [r for r in rows(name) if all(k in r and r[k] == v for k, v in keys.items())]
@@ -64,6 +65,10 @@ def result(name: str, field: str, **keys: Any) -> str:
     if field not in found[0]:
         raise ResultError(f"{where}: the row has no field {field!r}")
     value = found[0][field]
+    if "index" in opts:
+        if not isinstance(value, list) or not -len(value) <= opts["index"] < len(value):
+            raise ResultError(f"{where}: {field} has no item {opts['index']}")
+        value = value[opts["index"]]
     if value is None:
         if "none" not in opts:
             raise ResultError(f"{where}: {field} is null (give none=... for its text)")

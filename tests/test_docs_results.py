@@ -37,12 +37,17 @@ def test_every_marker_of_every_page_resolves():
 
 def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
     hook = _hook()
-    rows = [{"case": "a", "x": 1.25, "y": None}, {"case": "b", "x": -2.0, "y": "text"}]
+    rows = [
+        {"case": "a", "field": "f", "x": 1.25, "y": None},
+        {"case": "b", "x": -2.0, "y": "text"},
+    ]
     (tmp_path / "toy.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     monkeypatch.setattr(hook, "RESULTS", tmp_path)
     assert hook.substitute('{{ result("toy", "x", case="a", digits=1) }} m') == "1.2 m"
     assert hook.substitute('{{ result("toy", "x", case="a", scale=100, sign=True) }}') == "+125.0"
     assert hook.substitute('{{ result("toy", "x", case="b") }}') == "-2.0"
+    assert hook.substitute('{{ result("toy", "x", field="f") }}') == "1.25"  # a column "field"
+    assert hook.substitute('{{ result("toy", "z", case="b", index=-1) }}') == "2.5"
     assert hook.substitute('{{ result("toy", "y", case="a", none="runs through") }}') == (
         "runs through"
     )
@@ -50,6 +55,7 @@ def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
     for marker, needle in (
         ('{{ result("nope", "x") }}', "no results file results/nope.jsonl"),
         ('{{ result("toy", "z", case="a") }}', "no field 'z'"),
+        ('{{ result("toy", "z", case="b", index=2) }}', "z has no item 2"),
         ('{{ result("toy", "x") }}', "2 rows match"),
         ('{{ result("toy", "x", case="c") }}', "0 rows match"),
         ('{{ result("toy", "y", case="a") }}', "is null"),
