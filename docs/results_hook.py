@@ -8,8 +8,9 @@ A page writes a marker where the figure goes::
 and the build puts there the field ``arrest_position_m`` of the one row of
 ``results/pst.jsonl`` whose fields equal the other keywords (here ``case`` and
 ``lateral``). Options, not row filters: ``digits`` (decimals), ``scale`` (a factor, 100
-for a percentage), ``sign`` (a leading ``+`` on positive values), ``none`` (the text for
-a null value, e.g. "runs through"), ``index`` (an item of a list value). An unknown file
+for a percentage), ``sign`` (a leading ``+`` on positive values), ``unit`` (text after a
+number), ``none`` (the text for a null value, e.g. "runs through"). A field may be a path
+into a row's lists and tables: ``"slab_fractures.0.x_m"``. An unknown file
 or field, a filter that matches no row or several, or any ``{{`` left over stops the
 build.
 
@@ -29,7 +30,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "results"
-OPTIONS = ("digits", "scale", "sign", "none", "index")
+OPTIONS = ("digits", "scale", "sign", "unit", "none")
 MARKER = re.compile(r"\{\{\s*(.*?)\s*\}\}")
 # a figure written out in README.md (a word, or any text in backticks) and the call it
 # must equal
@@ -62,13 +63,18 @@ def result(name: str, field: str, /, **keys: Any) -> str:
     where = f"results/{name}.jsonl {keys or ''}".rstrip()
     if len(found) != 1:
         raise ResultError(f"{where}: {len(found)} rows match, not one")
-    if field not in found[0]:
-        raise ResultError(f"{where}: the row has no field {field!r}")
-    value = found[0][field]
-    if "index" in opts:
-        if not isinstance(value, list) or not -len(value) <= opts["index"] < len(value):
-            raise ResultError(f"{where}: {field} has no item {opts['index']}")
-        value = value[opts["index"]]
+    value: Any = found[0]
+    for part in field.split("."):
+        if (
+            isinstance(value, list)
+            and re.fullmatch(r"-?\d+", part)
+            and -len(value) <= int(part) < len(value)
+        ):
+            value = value[int(part)]
+        elif isinstance(value, dict) and part in value:
+            value = value[part]
+        else:
+            raise ResultError(f"{where}: the row has no field {field!r}")
     if value is None:
         if "none" not in opts:
             raise ResultError(f"{where}: {field} is null (give none=... for its text)")
@@ -77,7 +83,7 @@ def result(name: str, field: str, /, **keys: Any) -> str:
         return str(value)
     value = value * opts.get("scale", 1)
     text = f"{value:.{opts['digits']}f}" if "digits" in opts else str(value)
-    return "+" + text if opts.get("sign") and value > 0 else text
+    return ("+" if opts.get("sign") and value > 0 else "") + text + opts.get("unit", "")
 
 
 def evaluate(call: str) -> str:
