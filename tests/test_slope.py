@@ -669,7 +669,7 @@ def test_generic_slope_case_checks_its_fields_when_built(kw, needle):
 
 
 def test_slope_acceptance_flags_are_checked_before_any_run(capsys):
-    from benchmarks import slope_acceptance
+    from verification import slope_acceptance
 
     for argv, needle in (
         (["--roll-length", "45"], "--toe-length = 10 m + --roll-length = 45 m: must be at most"),
