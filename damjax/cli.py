@@ -42,11 +42,13 @@ def _help(spec: Spec, default: Any) -> str:
     """A flag's help: its meaning, unit and valid range, and its default."""
     unit = f" [{spec.unit}]" if spec.unit else ""
     if spec.kind == "choice":
-        valid = "one of " + ", ".join(spec.valid)
+        valid = ""  # the metavar lists them
+    elif isinstance(spec.valid, tuple):  # --dim
+        valid = "one of " + ", ".join(str(v) for v in spec.valid)
     else:
-        valid = ("an integer in " if spec.kind == "int" else "in ") + spec.valid_text
+        valid = ("an integer in " if spec.kind == "int" else "in ") + str(spec.valid)
     default = f"default: {spec.optional}" if spec.optional else f"default {default}"
-    return f"{spec.doc}{unit}, {valid}; {default}"
+    return f"{spec.doc}{unit}" + (f", {valid}" if valid else "") + f"; {default}"
 
 
 class _Parser(argparse.ArgumentParser):

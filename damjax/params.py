@@ -59,7 +59,9 @@ def _bound(x: float) -> str:
 def number_text(x: float) -> str:
     """A number as a hint writes it: 4e6, 250, 34.4."""
     text = f"{x:.3g}"
-    if "e" in text:
+    if "e" in text and 1e-3 <= abs(x) < 1e5:  # 4000, not 4e3
+        text = f"{x:.0f}"
+    elif "e" in text:
         mantissa, exp = text.split("e")
         text = f"{mantissa}e{int(exp)}"
     return text
@@ -282,7 +284,7 @@ class PSTParams(eqx.Module):
     )
     wl_shear_modulus: Any = param(2.0e5, "Pa", "weak-layer shear modulus G_wl", POSITIVE)
     wl_thickness: Any = param(
-        0.04, "m", "weak-layer thickness D_wl (stiffness K_wl = G_wl / D_wl [Pa/m])", POSITIVE
+        0.04, "m", "weak-layer thickness D_wl", POSITIVE, notes="K_wl = G_wl / D_wl [Pa/m]."
     )
     tau_peak: Any = param(
         1000.0,
@@ -492,9 +494,7 @@ class PSTSetup:
     """
 
     length: float = setting(_LENGTH, 100.0, doc="PST length L")
-    dx: float = setting(
-        _DX, 0.02, doc="grid spacing; must be below Lambda/2 (warns above Lambda/5)"
-    )
+    dx: float = setting(_DX, 0.02, notes="At most Lambda/2 (a warning above Lambda/5).")
     duration: float = setting(_DURATION, 3.0)
     controlled: bool = setting(
         Spec(

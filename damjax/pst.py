@@ -45,6 +45,7 @@ from damjax.validation import (
     InputError,
     Problem,
     check_width,
+    concrete_only,
     dubious,
     ensure_x64,
     expect_types,
@@ -278,24 +279,12 @@ def simulate_pst(
             (checkpointing; see `damjax.core.loop.integrate`).
     """
     params = PSTParams() if params is None else params
-    if is_traced(params) and (
-        progress or state is not None or start_chunk or history or callback is not None
-    ):
-        raise TypeError(
-            "simulate_pst: progress, resume (state, start_chunk, history) and callback "
-            "need concrete parameters; inside jax.grad/jit/vmap call it without them"
-        )
+    resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
+    concrete_only("simulate_pst", is_traced(params), progress, resume)
     prep = _prepared_and_warned(params, setup, layout, stacklevel=3)
     if is_traced(params):
         return _simulate_traced(prep)
-    return run(
-        prep,
-        progress=progress,
-        state=state,
-        start_chunk=start_chunk,
-        history=history,
-        callback=callback,
-    )
+    return run(prep, progress=progress, **resume)
 
 
 @dataclasses.dataclass(frozen=True)

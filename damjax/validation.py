@@ -664,6 +664,17 @@ def _unused_slab_settings(
 # --------------------------------------------------------------------------- other checks
 
 
+def concrete_only(caller: str, traced: bool, progress: bool, resume: dict[str, Any]) -> None:
+    """TypeError where a progress bar, a resumed run (``state``, ``start_chunk``,
+    ``history``) or a ``callback`` come with traced inputs: they need a concrete run."""
+    given = [resume[k] is not None for k in ("state", "history", "callback")]
+    if traced and (progress or resume["start_chunk"] or any(given)):
+        raise TypeError(
+            f"{caller}: progress, resume (state, start_chunk, history) and callback need "
+            "concrete inputs; inside jax.grad/jit/vmap call it without them"
+        )
+
+
 def check_width(width: Any) -> None:
     """ValueError unless the smooth arrest position's damage-ramp ``width`` is None or a
     number in (0, 1] (the ramp spans u_max / u_r in [1 - width, 1])."""

@@ -174,3 +174,12 @@ def test_the_layer_check_finds_an_upward_import():
 def test_no_module_imports_from_a_layer_above_its_own():
     lines = upward(_graph(), _table())
     assert not lines, "\n".join(lines)
+
+
+def test_the_core_imports_nothing_from_validation():
+    """Values are checked at the edge (`damjax.pst.prepare`, ...); the core reads the
+    declarations of `damjax.params` for its run-time guards, never the checks."""
+    graph = _graph()
+    core = [m for m in graph if m.startswith("damjax.core")]
+    assert core
+    assert not [(m, t) for m in core for t in graph[m] if t == "damjax.validation"]

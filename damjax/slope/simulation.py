@@ -50,6 +50,7 @@ from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import (
     InputError,
     Problem,
+    concrete_only,
     ensure_x64,
     expect_types,
     partial_cells,
@@ -288,7 +289,7 @@ class SlopeRunWarning(UserWarning):
 
 def _slope_notes(
     params: PSTParams, setup: SlopeSetup, slope_deg: Any, fall_deg: Any = 0.0
-) -> list[Problem]:
+) -> list[str]:
     """Valid but dubious slope inputs: a start at or below the friction angle (a released
     slab does not slide there, so the crack cannot run away from the saw), a length or
     width that is not a whole number of cells (the grid rounds it)."""
@@ -320,7 +321,7 @@ def _slope_notes(
             f"{name} = {v:g}: not a whole number of cells of dx = {setup.dx:g}; the "
             f"area is {grid:.6g} m {'long' if name == 'length' else 'wide'}"
         )
-    return [Problem(None, reason=n, form="line", setup=SlopeSetup, category="slope") for n in notes]
+    return notes
 
 
 def overloaded_fraction(params: PSTParams, slope_deg: Any, tau_peak: Any) -> float:
@@ -404,30 +405,18 @@ def simulate_slope(
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
-    inputs = (params, slope_deg, tau_peak, fall_deg)
-    if is_traced(inputs) and (
-        progress or state is not None or start_chunk or history or callback is not None
-    ):
-        raise TypeError(
-            "simulate_slope: progress, resume (state, start_chunk, history) and callback "
-            "need concrete inputs; inside jax.grad/jit/vmap call it without them"
-        )
+    traced = is_traced((params, slope_deg, tau_peak, fall_deg))
+    resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
+    concrete_only("simulate_slope", traced, progress, resume)
     prep = prepare(
         params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg, layout=layout
     )
     for note in prep.notes:
         category = SlopeRunWarning if note.category == "slope" else UserWarning
         warnings.warn(note.text(), category, stacklevel=2)
-    if is_traced(inputs):
+    if traced:
         return _simulate_slope_traced(prep)
-    return run(
-        prep,
-        progress=progress,
-        state=state,
-        start_chunk=start_chunk,
-        history=history,
-        callback=callback,
-    )
+    return run(prep, progress=progress, **resume)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -508,7 +497,10 @@ def prepare(
         slope_deg, fall_deg, tau_peak, start = fields(setup)
         setup = dataclasses.replace(setup, start=start)
         raise_if(slope_field_problems(setup, slope_deg, tau_peak, fall_deg))
-    notes = _slope_notes(params, setup, slope_deg, fall_deg)
+    notes = [
+        Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
+        for note in _slope_notes(params, setup, slope_deg, fall_deg)
+    ]
     frac = overloaded_fraction(params, slope_deg, tau_peak)
     if frac > 0:
         notes.append(
