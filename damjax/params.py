@@ -95,7 +95,6 @@ POSITIVE = Range(0.0, INF)  # (0, inf)
 POSITIVE_OR_INF = Range(0.0, INF, hi_in=True)  # (0, inf]: an infinite strength is valid
 NONNEGATIVE = Range(0.0, INF, lo_in=True)  # [0, inf)
 ANGLE = Range(0.0, 90.0)  # (0, 90) deg
-ANY_NUMBER = Range(-INF, INF)  # finite
 
 # units a value may have been given in by mistake, and their factor to the field's unit
 _UNIT_MIXUPS: dict[str, tuple[tuple[str, float], ...]] = {

@@ -326,7 +326,10 @@ def prepare(
     invalid input, carrying the notes on implausible values in ``notes``.
 
     Args:
-        params, setup, layout: as `simulate_pst` takes them.
+        params: physical parameters (default: the paper's elastic baseline).
+        setup: numerics (default: `PSTSetup()`).
+        layout: static layout (`make_layout`), checked against the parameters; default:
+            made from them.
         batch: batched fields allowed (`damjax.sweep`).
         given: the parameters set explicitly (the dubious-value notes report only those
             as ignored by a controlled run); None: all.

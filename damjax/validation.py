@@ -10,7 +10,7 @@ problems itself: the API and the command line name ``poisson (--poisson)``
 too (``category``), warned before the run.
 
 `damjax.pst.prepare` and `damjax.slope.simulation.prepare` run these checks once per run;
-`check_problem_size` stops runs too large for this machine; `ensure_x64` / `require_x64`
+`size_problem` finds runs too large for this machine; `ensure_x64` / `require_x64`
 handle float64 runs.
 """
 

@@ -13,19 +13,13 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     tensile_strength = 4000.0   # are PST-only and ignored here; slope_deg is the angle
     softening = 1.0             # of a "plane" terrain, tau_peak the default strength
 
-    [setup]                     # fields of damjax.SlopeSetup
+    [setup]                     # fields of damjax.SlopeSetup, e.g.
     length = 50.0               # down-slope extent along the surface [m]
     width = 60.0                # cross-slope extent [m]
     dx = 0.2                    # grid spacing [m] (at most Lambda/2)
-    duration = 2.0              # simulated time [s]
     start = [15.0, 30.0]        # crack start (x, y) [m] (see strength.start_window)
-    cfl = 0.5                   # Courant number, (0, 1)
-    particles_per_cell = 1      # per cell and dimension, integer >= 1
-    dtype = "float32"           # "float32" or "float64"
-    chunk_steps = 100           # steps per jitted chunk (one animation frame each)
-    p0_rule = "paper"           # "paper" or "uniaxial"
-    slab_fracture = "paper"     # "paper" or "crack_band" (G_f, random sigma_t field)
-    seed = 0                    # picks the sigma_t field ("crack_band"), integer
+    # every field of [params] and [setup], with its unit, valid range, kind and default:
+    # `damjax.params` (the reference page "Scenario-file keys" is generated from it)
 
     [terrain]                   # optional (default: kind = "plane")
     kind = "plane"              # "plane": slope_deg [deg] (default params.slope_deg)

@@ -460,8 +460,13 @@ def prepare(
     input.
 
     Args:
-        params, setup, slope_deg, tau_peak, fall_deg, layout: as `simulate_slope` takes
-            them.
+        params: slab and weak-layer parameters.
+        setup: geometry and numerics (default: `SlopeSetup()`).
+        slope_deg: local slope angle [deg], scalar or (nx, ny) (default params.slope_deg).
+        tau_peak: weak-layer strength [Pa], scalar or (nx, ny) (default params.tau_peak).
+        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
+        layout: static layout (`damjax.core.model.make_slope_layout`); default: made
+            from the inputs.
         fields: instead of the maps, ``fields(setup) -> (slope_deg, fall_deg, tau_peak,
             start)``, called once the parameters and the grid are valid (a scenario's
             terrain and strength tables, read on the grid).
