@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.validation import is_plastic
+from damjax.params import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
 ARREST_QUIET = 0.3  # [s]

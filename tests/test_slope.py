@@ -402,7 +402,7 @@ def test_slope_profile_is_validated_and_differentiable():
     from damjax.validation import param_problems
 
     for bad in ([35.0], [35.0, 95.0], [35.0, math.nan]):
-        lines = param_problems(PSTParams(slope_profile=bad))
+        lines = [str(p) for p in param_problems(PSTParams(slope_profile=bad))]
         assert len(lines) == 1 and lines[0].startswith("slope_profile"), lines
     doc = raw("quick")
     doc["params"]["slope_profile"] = [35.0, 0.0]
