@@ -47,10 +47,10 @@ d L / d theta by AD against the least-squares slope of the event-based L_ca over
 720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01716 m/(Pa/m)
 averaged over the window (-0.01647 at theta 800) against -0.01723 (the event-based
 failure of earlier versions gave -0.00073). On the paper's brittle baseline (100 m,
-dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m benchmarks
-gradient_full`): AD -0.2487 averaged over the window (-0.2252 at theta 500) against -0.2472
-(earlier versions: -0.0012). `python -m benchmarks gradient_events` measures the other
-fields and softening 0.3.
+dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m
+verification.gradients full`): AD -0.2487 averaged over the window (-0.2252 at theta 500)
+against -0.2472 (earlier versions: -0.0012). `python -m verification.gradients events`
+measures the other fields and softening 0.3.
 
 When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no segment lies on
@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.validation import is_plastic
+from damjax.params import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
 ARREST_QUIET = 0.3  # [s]

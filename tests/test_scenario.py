@@ -21,8 +21,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from damjax import PSTParams, PSTSetup, runner, scenario, theory, validation
+from damjax import PSTParams, PSTSetup, runner, scenario, theory
 from damjax.cli import main
+from damjax.params import specs
 from damjax.scenario import schema
 
 SHIPPED = scenario.shipped()
@@ -278,10 +279,15 @@ def _typo(key: str, how: int) -> str:
 
 
 def _out_of_range(sec: str, key: str, kind: str) -> list:
-    rules = validation.PARAM_RULES if sec == "params" else validation.SETUP_RULES
-    if key not in rules:
+    decl = specs(SECTION_CLS[sec]).get(key) if sec in ("params", "setup") else None
+    if decl is None or decl.kind not in ("float", "int"):
         return []
-    ok = rules[key][0]
+
+    def ok(v: float) -> bool:
+        if isinstance(decl.valid, tuple):
+            return v in decl.valid
+        return bool(decl.valid.holds(v)) and (decl.kind != "int" or v.is_integer())
+
     cands = [-1, 0, 3, 1000] if kind == "int" else [-1.0, 0.0, 0.7, 1.5, 95.0, -1e6, math.inf]
     return [v for v in cands if not ok(float(v))]
 

@@ -526,7 +526,7 @@ def test_slope_profile_is_validated_and_differentiable():
     from damjax.validation import param_problems
 
     for bad in ([35.0], [35.0, 95.0], [35.0, math.nan]):
-        lines = param_problems(PSTParams(slope_profile=bad))
+        lines = [str(p) for p in param_problems(PSTParams(slope_profile=bad))]
         assert len(lines) == 1 and lines[0].startswith("slope_profile"), lines
     doc = raw("quick")
     doc["params"]["slope_profile"] = [35.0, 0.0]
@@ -793,7 +793,7 @@ def test_generic_slope_case_checks_its_fields_when_built(kw, needle):
 
 
 def test_slope_acceptance_flags_are_checked_before_any_run(capsys):
-    from benchmarks import slope_acceptance
+    from verification import slope_acceptance
 
     for argv, needle in (
         (["--roll-length", "45"], "--toe-length = 10 m + --roll-length = 45 m: must be at most"),

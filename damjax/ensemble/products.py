@@ -182,14 +182,10 @@ _STRENGTH_UNITS = {
 
 
 def _param_units(name: str) -> str:
-    """CF units of a drawn PSTParams field, from its valid range's text ("(0, inf) Pa")."""
-    from damjax.validation import PARAM_RULES
+    """CF units of a drawn PSTParams field (its declaration, `damjax.params`)."""
+    from damjax.params import PSTParams, specs
 
-    text = PARAM_RULES.get(name, (None, ""))[1]
-    unit = text.rsplit(")", 1)[-1].rsplit("]", 1)[-1].strip()
-    return {"deg": "degree", "Pa/m": "Pa m-1", "kg/m^3": "kg m-3", "J/m^2": "J m-2"}.get(
-        unit, unit or "1"
-    )
+    return specs(PSTParams)[name].cf_unit
 
 
 def slice_name(a: int, b: int) -> str:

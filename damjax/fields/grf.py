@@ -24,6 +24,7 @@ import numpy as np
 from jax import Array
 from jax.typing import ArrayLike
 
+from damjax._tracing import is_traced
 from damjax.fields.maps import map_on_grid
 
 CovarianceModel = Literal["gaussian", "exponential"]
@@ -138,14 +139,9 @@ def embedding_shape(
     return tuple(_next_fast_size(2 * int(n) + p) for n, p in zip(shape, pads, strict=True))
 
 
-def _traced(value: object) -> bool:
-    """Whether any leaf of a value (a number, an array or a tuple of them) is traced."""
-    return any(isinstance(v, jax.core.Tracer) for v in jax.tree.leaves(value))
-
-
 def _concrete(value: ArrayLike, name: str) -> np.ndarray:
     """The value of a possibly differentiated argument, or a clear error inside jit."""
-    if not _traced(value):
+    if not is_traced(value):
         return np.asarray(value, dtype=float)  # a constant, also inside jit
     try:
         return np.asarray(jax.lax.stop_gradient(value), dtype=float)
@@ -234,15 +230,15 @@ def grf(
         ("trend", trend, (1, ndim)),
         ("std", std, (1,)),
     ):
-        if not _traced(value) and np.size(value) not in sizes:
+        if not is_traced(value) and np.size(value) not in sizes:
             raise ValueError(
                 f"grf: {name} = {value!r}: must have "
                 + " or ".join(str(k) for k in sizes)
                 + f" value(s) on a {ndim}D grid"
             )
-    if not _traced(std) and not float(np.asarray(std)) >= 0:
+    if not is_traced(std) and not float(np.asarray(std)) >= 0:
         raise ValueError(f"grf: std = {std!r}: must be in [0, inf) Pa")
-    if not _traced(length_scale):
+    if not is_traced(length_scale):
         ls = np.asarray(length_scale, dtype=float)
         if not np.all(np.isfinite(ls) & (ls > 0)):
             raise ValueError(f"grf: length_scale = {length_scale!r}: must be in (0, inf) m")

@@ -1,7 +1,8 @@
 """Slope scenarios resolved to fields: the slope angle, fall-line direction and strength
 [deg, deg, Pa] at the cell centres of the release area, from a plane, the generic slope
-or a DEM and from a constant, a Gaussian random field or a strength map; and `simulate`,
-the run of a validated slope scenario (`damjax.simulate_slope`).
+or a DEM and from a constant, a Gaussian random field or a strength map; `prepare`, the
+checked run of a slope scenario (`damjax.slope.simulation.prepare` on these fields), and
+`simulate`, its run.
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from damjax.scenario.schema import _fmt
+from damjax.scenario.schema import _fmt, prepared
+from damjax.slope import simulation
 from damjax.slope.generic import GenericSlopeCase, weak_spot
-from damjax.slope.simulation import SlopeRunWarning, simulate_slope
+from damjax.slope.simulation import SlopeRunWarning
 
 _GENERIC_DEFAULTS = {
     "max_slope_deg": 35.0,
@@ -289,27 +291,34 @@ def release_start(scn: Any, tau: np.ndarray) -> tuple[float, float]:
         raise _FieldProblem(str(exc)) from None
 
 
+def prepare(scn: Any) -> simulation.PreparedSlope:
+    """`damjax.slope.simulation.prepare` of a slope scenario: its fields read
+    (`resolve_fields`) once the parameters and the grid are checked."""
+    return simulation.prepare(
+        scn.params,
+        scn.setup,
+        fields=lambda setup: resolve_fields(dataclasses.replace(scn, setup=setup)),
+    )
+
+
 def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
-    """Run a slope scenario: `simulate_slope` on the resolved fields (`SlopeResult`).
+    """Run a slope scenario: its checked run (`damjax.scenario.prepared`: the fields read
+    and checked when the scenario was) integrated by `damjax.slope.simulation.run`
+    (`SlopeResult`).
 
     ``resume``: `simulate_slope`'s state, start_chunk, history and callback (checkpoints).
     The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]; None
     where the up-slope front did not arrest), ``start_m`` and ``start_slope_deg``.
     """
-    slope, fall, tau, start = resolve_fields(scn)
-    setup = dataclasses.replace(scn.setup, start=start)
+    prep = prepared(scn)
+    setup, slope, start = prep.setup, prep.slope_deg, prep.setup.start
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         warnings.simplefilter("default", SlopeRunWarning)  # matched first: passed on
-        res = simulate_slope(
-            scn.params,
-            setup,
-            slope_deg=slope,
-            tau_peak=tau,
-            fall_deg=fall,
-            progress=progress,
-            **resume,
-        )
+        for note in prep.notes:
+            if note.category == "slope":
+                warnings.warn(note.text(), SlopeRunWarning, stacklevel=2)
+        res = simulation.run(prep, progress=progress, **resume)
     s = res.summary
     # from the lower edge, where the up-slope front arrested (None otherwise)
     d = s["upslope_arrest_distance_m"]

@@ -16,7 +16,7 @@ PST sawing procedure) and the choices the paper leaves open, each stated here:
   friction angle (27 deg; below it friction holds a released slab and no shear crack runs;
   30 deg is also the usual lower bound of potential release areas) and the roll can take
   only the top ~10 m. The toe and roll lengths and the end angles remain our choice; the
-  arrest follows the roll (`benchmarks.slope_acceptance` reports the sensitivity);
+  arrest follows the roll (`verification.slope_acceptance` reports the sensitivity);
 - strength: expected tau_p = 1000 Pa (the PSTs' tau_p on L_ss, where their crack starts)
   up to the bottom of the start window (x = 2 m, `mean_at`), rising `trend` = 20 Pa/m
   up-slope above it (the PSTs' arrangement: constant strength where the crack starts,

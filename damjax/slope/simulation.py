@@ -37,15 +37,27 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     build_slope,
     make_slope_layout,
 )
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State, raise_on_fault
-from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
+from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
+from damjax.core.step import column_height
 from damjax.diagnostics import ARREST_MARGIN, ARREST_QUIET, weak_layer_damage
+from damjax.materials.slab_fracture import (
+    FRACTURE_OPENING,
+    band_opening,
+    fracture_opening,
+    fracture_strain,
+)
 from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import (
+    InputError,
+    Problem,
+    concrete_only,
     ensure_x64,
     expect_types,
     partial_cells,
+    raise_if,
     require_x64,
+    size_problem,
+    slope_field_problems,
     slope_problems,
 )
 
@@ -435,6 +447,73 @@ def simulate_slope(
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
     """
+    traced = is_traced((params, slope_deg, tau_peak, fall_deg))
+    resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
+    concrete_only("simulate_slope", traced, progress, resume)
+    prep = prepare(
+        params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg, layout=layout
+    )
+    for note in prep.notes:
+        category = SlopeRunWarning if note.category == "slope" else UserWarning
+        warnings.warn(note.text(), category, stacklevel=2)
+    if traced:
+        return _simulate_slope_traced(prep)
+    return run(prep, progress=progress, **resume)
+
+
+@dataclasses.dataclass(frozen=True)
+class PreparedSlope:
+    """A slope run checked once, at the edge (`prepare`): what `run` integrates.
+
+    Attributes:
+        params: the parameters.
+        setup: the setup (with the start a scenario's ``fields`` gave).
+        slope_deg, tau_peak, fall_deg: the maps (or scalars) [deg, Pa, deg].
+        layout: the static layout (grid, step count, slab law).
+        notes: the warnings of the input, not yet warned (`damjax.validation.Problem`s;
+            category "slope": a `SlopeRunWarning`, "overloaded": the strength at or below
+            the slab's weight, with the share of the area as ``value``).
+    """
+
+    params: PSTParams
+    setup: SlopeSetup
+    slope_deg: Any
+    tau_peak: Any
+    fall_deg: Any
+    layout: SlopeLayout
+    notes: tuple[Problem, ...] = ()
+
+
+def prepare(
+    params: PSTParams,
+    setup: SlopeSetup | None = None,
+    *,
+    slope_deg: Any = None,
+    tau_peak: Any = None,
+    fall_deg: Any = 0.0,
+    layout: SlopeLayout | None = None,
+    fields: Any = None,
+    max_particles: int | None = None,
+) -> PreparedSlope:
+    """Check a slope run's input once and make its layout: the types, every value (those
+    JAX holds behind traced inputs under `jax.grad` and `jax.vmap`, member by member; inside
+    `jax.jit` none), the start and the maps, the 64-bit switch, the layout and the run's
+    size. `damjax.validation.InputError` (a ValueError, one line per problem) on invalid
+    input.
+
+    Args:
+        params: slab and weak-layer parameters.
+        setup: geometry and numerics (default: `SlopeSetup()`).
+        slope_deg: local slope angle [deg], scalar or (nx, ny) (default params.slope_deg).
+        tau_peak: weak-layer strength [Pa], scalar or (nx, ny) (default params.tau_peak).
+        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
+        layout: static layout (`damjax.core.model.make_slope_layout`); default: made
+            from the inputs.
+        fields: instead of the maps, ``fields(setup) -> (slope_deg, fall_deg, tau_peak,
+            start)``, called once the parameters and the grid are valid (a scenario's
+            terrain and strength tables, read on the grid).
+        max_particles: the most particles a run may have (scenario files).
+    """
     setup = SlopeSetup() if setup is None else setup
     expect_types(
         "simulate_slope",
@@ -446,30 +525,96 @@ def simulate_slope(
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
     inputs = (params, slope_deg, tau_peak, fall_deg)
     if is_traced(inputs):
-        if progress or state is not None or start_chunk or history or callback is not None:
-            raise TypeError(
-                "simulate_slope: progress, resume (state, start_chunk, history) and callback "
-                "need concrete inputs; inside jax.grad/jit/vmap call it without them"
-            )
-        return _simulate_slope_traced(params, setup, slope_deg, tau_peak, fall_deg, layout)
-    problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
-    if problems:
-        raise ValueError("\n".join(problems))
-    for note in _slope_notes(params, setup, slope_deg, fall_deg):
-        warnings.warn(note, SlopeRunWarning, stacklevel=2)
-    # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
+        require_x64(setup.dtype)
+        # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
+        members = concrete_members(inputs)
+        for member in members or ():
+            raise_if(slope_problems(member[0], setup, *member[1:]))
+        if layout is None:
+            if members is None:
+                layout = _layout_from_known(params, setup, slope_deg)
+            else:
+                layout = _batch_layout(members, setup)
+            _check_size(layout, setup, max_particles)
+        return PreparedSlope(params, setup, slope_deg, tau_peak, fall_deg, layout)
+    if fields is None:
+        raise_if(slope_problems(params, setup, slope_deg, tau_peak, fall_deg))
+    else:  # the maps read once the parameters and the grid are valid
+        raise_if(slope_problems(params, setup))
+        slope_deg, fall_deg, tau_peak, start = fields(setup)
+        setup = dataclasses.replace(setup, start=start)
+        raise_if(slope_field_problems(setup, slope_deg, tau_peak, fall_deg))
+    notes = [
+        Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
+        for note in _slope_notes(params, setup, slope_deg, fall_deg)
+    ]
     frac = overloaded_fraction(params, slope_deg, tau_peak)
     if frac > 0:
-        warnings.warn(
-            f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
-            f"{100 * frac:.3g} % of the area: the weak layer fails there "
-            "under the slab's weight at once (a strength map in kPa instead of Pa?)",
-            stacklevel=2,
+        notes.append(
+            Problem(
+                None,
+                frac,
+                f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
+                f"{100 * frac:.3g} % of the area: the weak layer fails there under the "
+                "slab's weight at once (a strength map in kPa instead of Pa?)",
+                form="line",
+                setup=SlopeSetup,
+                category="overloaded",
+            )
         )
     ensure_x64(setup.dtype)
     if layout is None:
         layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
-    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
+        _check_size(layout, setup, max_particles)
+    return PreparedSlope(params, setup, slope_deg, tau_peak, fall_deg, layout, tuple(notes))
+
+
+def _check_size(layout: SlopeLayout, setup: SlopeSetup, max_particles: int | None) -> None:
+    """InputError when a slope run has more than ``max_particles`` particles or cannot
+    fit in this machine's memory."""
+    ppc = int(setup.particles_per_cell)
+    n = layout.n_cells[0] * layout.n_cells[1] * ppc * ppc
+    if max_particles is not None and n > max_particles:
+        raise InputError(
+            [
+                Problem(
+                    "dx",
+                    setup.dx,
+                    f"with ${{length}} = {setup.length:g}, ${{width}} = {setup.width:g} and "
+                    f"${{particles_per_cell}} = {ppc} the run has {n:.3g} particles: must be "
+                    f"at most {max_particles:.0e}",
+                    setup=SlopeSetup,
+                )
+            ]
+        )
+    problem = size_problem(
+        n,
+        layout.grid_shape[0] * layout.grid_shape[1],
+        layout.n_chunks,
+        np.dtype(setup.dtype).itemsize,
+        ("length", "width", "dx", "duration", "particles_per_cell"),
+        " of the slope",
+        SlopeSetup,
+    )
+    raise_if([problem] if problem is not None else [])
+
+
+def run(
+    prep: PreparedSlope,
+    *,
+    progress: bool = False,
+    state: State | None = None,
+    start_chunk: int = 0,
+    history: tuple[list[Any], list[Any]] | None = None,
+    callback: Any = None,
+) -> SlopeResult:
+    """Integrate a prepared slope run of concrete inputs (`prepare`): the model built once,
+    the run chunk by chunk, the maps and every diagnostic. The arguments are
+    `simulate_slope`'s."""
+    params, setup, layout = prep.params, prep.setup, prep.layout
+    model, state0, xp, yp = build_slope(
+        params, setup, layout, prep.slope_deg, prep.tau_peak, prep.fall_deg
+    )
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -587,7 +732,7 @@ def simulate_slope(
             "saw_stopped = False; a longer duration, or a slope steeper than the friction "
             "angle at the start)",
             SlopeRunWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
     nx, ny = layout.n_cells
     snapshots = {}
@@ -667,28 +812,12 @@ def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> 
     return make_slope_layout(known_params(params, unknown), setup, steepest)
 
 
-def _simulate_slope_traced(
-    params: PSTParams,
-    setup: SlopeSetup,
-    slope_deg: Any,
-    tau_peak: Any,
-    fall_deg: Any,
-    layout: SlopeLayout | None,
-) -> SlopeResult:
+def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
     """`simulate_slope` on traced inputs: the pure run, JAX maps (`SlopeResult`)."""
-    require_x64(setup.dtype)
-    # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
-    members = concrete_members((params, slope_deg, tau_peak, fall_deg))
-    for member in members or ():
-        problems = slope_problems(member[0], setup, *member[1:])
-        if problems:
-            raise ValueError("\n".join(problems))
-    if layout is None:
-        if members is None:
-            layout = _layout_from_known(params, setup, slope_deg)
-        else:
-            layout = _batch_layout(members, setup)
-    model, state0, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
+    params, setup, layout = prep.params, prep.setup, prep.layout
+    model, state0, xp, yp = build_slope(
+        params, setup, layout, prep.slope_deg, prep.tau_peak, prep.fall_deg
+    )
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
     # each particle's cell from its reference position (host values: model.cell0 may be
