@@ -250,7 +250,7 @@ def grf(
         raise ValueError(f"grf: embed_shape {embed_shape} must cover shape {shape}")
     args = (key, mean, std, length_scale, angle_deg, trend)
     kw = dict(shape=shape, spacing=spacing, model=model, floor=floor, embed_shape=embed_shape)
-    if not _traced(args):
+    if not is_traced(args):
         return jnp.asarray(_grf_host(*args, **kw))
     return _grf(*args, **kw)
 
