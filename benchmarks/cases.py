@@ -246,10 +246,14 @@ def batch16() -> None:
 
 
 _SLOPE_KEYS = (
+    "upslope_front",
+    "crossslope_front",
+    "upslope_extent_m",
     "upslope_arrest_distance_m",
     "upslope_arrest_position_m",
     "arrested_before_top",
     "crossslope_extent_m",
+    "crossslope_arrest_distance_m",
     "upslope_crack_speed_over_cs",
     "crossslope_crack_speed_over_cs",
     "upslope_crack_speed_mean_over_cs",

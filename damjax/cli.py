@@ -268,8 +268,9 @@ def _params_from_profile(ns: argparse.Namespace) -> PSTParams:
     except ValueError as exc:
         msg = str(exc).replace("weak_layer = ", "--weak-layer ")
         raise ValueError(f"--profile {msg}" if "--weak-layer" not in msg else msg) from None
+    units = {"thickness": "m", "density": "kg/m^3", "youngs_modulus": "Pa", "slope_deg": "deg"}
     set_ = [
-        f"{k} = {float(getattr(params, k)):.4g}"
+        f"{k} = {float(getattr(params, k)):.4g} {units.get(k, 'Pa')}"
         for k in ("thickness", "density", "youngs_modulus", "slope_deg", "tau_peak")
         if k not in given and float(getattr(params, k)) != float(getattr(PSTParams(), k))
     ]

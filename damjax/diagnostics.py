@@ -225,7 +225,13 @@ def summarize(
 
     A crack arrests only after it ran by itself: while the saw still cuts (it stops once
     the tip leads it, `damjax.core.model`), a tip standing still is a slow saw, not an
-    arrest. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
+    arrest. ``crack_front`` says which of these happened: "arrested", "reached_end" (the
+    tip came within `ARREST_MARGIN` of the far end), "moving" (still running at the end
+    of the run), "sawn_only" (the crack never ran ahead of the saw) or "controlled" (an
+    unbreakable layer sawn on purpose). ``critical_cut_length_theory_m`` is the bar
+    model's cut at which the crack runs (`damjax.theory.pst_critical_cut_length`, which
+    accounts for the strength rising beyond L_ss): None where that model predicts no cut
+    starts a crack. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
     describe the run, so ``arrest_length_m`` (L_ca - L_ss) and the theory values
     (``critical_cut_length_theory_m``, ``runaway_gradient_pa_per_m``) are None; so are
     the theory values with a softening weak layer (they are the brittle closed forms). A
@@ -260,18 +266,34 @@ def summarize(
     # the bar model behind a_c and theta_run needs a slab that slides once released
     psi = float(np.max(p.slope_profile)) if p.slope_profile is not None else float(p.slope_deg)
     slides = psi > float(p.friction_deg)
+    final_tip = float(result.tip[-1]) if result.tip.size else math.nan
+    if s.controlled:
+        front = "controlled"
+    elif not saw_stopped:
+        front = "sawn_only"
+    elif arrested:
+        front = "arrested"
+    elif final_tip > s.length - ARREST_MARGIN:
+        front = "reached_end"
+    else:
+        front = "moving"
+    a_c_th = (
+        None
+        if s.controlled or not slides or profiled or not brittle
+        else float(theory.pst_critical_cut_length(p, s.lateral))
+    )
     return {
         "lateral": s.lateral,
         "controlled": bool(s.controlled),
         "arrested": arrested,
+        "crack_front": front,
         "arrest_position_m": _none(l_ca),
         "arrest_length_m": _none(l_ca - lss) if arrested and not profiled else None,
         "arrest_time_s": _none(t_stop) if arrested else None,
-        "final_tip_m": _none(float(result.tip[-1]) if result.tip.size else math.nan),
+        "final_tip_m": _none(final_tip),
         "critical_cut_length_m": _none(saw_position) if saw_stopped else None,
-        "critical_cut_length_theory_m": None
-        if s.controlled or not slides or profiled or not brittle
-        else _none(float(theory.critical_cut_length(p, s.lateral))),
+        # None also where the closed form says no cut starts a crack (inf)
+        "critical_cut_length_theory_m": None if a_c_th is None else _none(a_c_th),
         # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
         "runaway_gradient_pa_per_m": None
         if s.controlled or is_plastic(p) or not slides or profiled or not brittle

@@ -172,6 +172,15 @@ def test_all_problems_reported_at_once():
         assert sum(key in line for line in lines) == 1, key
 
 
+def test_a_misspelt_table_is_one_problem():
+    """[param] for [params]: its L_ss 5 m was not read, and the default 20 m does not fit
+    the 10 m PST; that follows from the misspelling and is not a second problem."""
+    text = 'type = "pst"\nname = "t"\n[param]\nsteady_length = 5.0\n[setup]\nlength = 10.0\n'
+    with pytest.raises(ValueError) as exc:
+        scenario.loads(text)
+    assert assert_clean(exc.value) == ["param: unknown key (did you mean 'params'?)"]
+
+
 def test_missing_and_wrong_top_level_keys():
     with pytest.raises(ValueError) as exc:
         scenario.loads('name = "x y"\ntype = "avalanche"\ndescription = 3\nparams = 5')

@@ -14,6 +14,7 @@ PAGES = {
     "inversion": "docs/verification/inversion.md",
     "gradients": "docs/guide/gradients.md, docs/verification/inversion.md",
     "slope_acceptance": "docs/verification/slopes.md",
+    "slope_runs": "docs/verification/slopes-fig12b.md, docs/guide/slopes.md",
     "slope_calibration_case": "docs/verification/slope-calibration.md",
     "weac_crosscheck": "docs/verification/weac.md",
     "fig12a_ensemble": "docs/guide/sweeps.md",

@@ -356,12 +356,14 @@ def slopes() -> str:
     ax0.set_ylabel("up-slope x [m]")
     fig.colorbar(im, ax=ax0, label="weak-layer failure time [s]", shrink=0.9)
     up = r.summary.get("upslope_arrest_distance_m")
-    ax0.set_title(f"seed 0, dx {dx} m: arrest {up:.1f} m from the start\n(grey: intact)")
+    what = "no arrest" if up is None else f"arrest {up:.1f} m from the start"
+    ax0.set_title(f"seed 0, dx {dx} m: {what}\n(grey: intact)")
     names = []
     dist = []
     for row in rows:
         names.append(row.get("run", row.get("label", "?")))
-        dist.append(row["upslope_arrest_distance_m"])
+        # rows before 2026-11-27 have no upslope_extent_m (their arrest distance was it)
+        dist.append(row.get("upslope_extent_m", row["upslope_arrest_distance_m"]))
     y = np.arange(len(rows))
     ax1.barh(y, dist, color="tab:blue")
     ax1.axvspan(40, 50, color="tab:red", alpha=0.15, lw=0)

@@ -157,12 +157,14 @@ def main(argv: list[str]) -> int:
     seeds = [r for r in rows if r["run"].startswith("seed")]
     if not seeds:
         return 0
-    up = np.array([r["upslope_arrest_distance_m"] for r in seeds])
-    pos = np.array([r["upslope_arrest_position_m"] for r in seeds])
+    # the distance reached (the arrest distance where the front arrested, which
+    # ok_arrest asks for; None in the summary otherwise)
+    up = np.array([r["upslope_extent_m"] for r in seeds])
+    pos = np.array([r["start_m"][0] + r["upslope_extent_m"] for r in seeds])
     cross = [r["crossslope_crack_speed_over_cs"] for r in seeds]
     upv = [r["upslope_crack_speed_over_cs"] for r in seeds]
     ok_arrest = [
-        bool(40.0 <= r["upslope_arrest_distance_m"] <= 50.0 and r["arrested_before_top"])
+        bool(r["arrested_before_top"] and 40.0 <= r["upslope_arrest_distance_m"] <= 50.0)
         for r in seeds
     ]
     ok_speed = [

@@ -537,6 +537,11 @@ def _check(
     if not isinstance(desc, str):
         problems.append(f"description = {_fmt(desc)}: must be a string")
 
+    if any(isinstance(data[k], dict) for k in data if k not in TOP_KEYS):
+        # a misspelt table ([param]): its values were not read, and checking the others
+        # against the defaults would report what follows from that (a default L_ss longer
+        # than the PST) as problems of their own
+        return None, problems, []
     check = _TYPES["slope"][0] if kind == "slope" else _TYPES["pst"][0]
     scn, notes = check(data, base_dir, problems)
     return (None, problems, []) if problems else (scn, [], notes)

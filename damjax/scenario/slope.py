@@ -497,7 +497,8 @@ def _lines(
 
 
 def warn_resolution(scn: Any) -> None:
-    """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5; for a
+    """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5, with how to
+    check it (half the dx, the same random field); for a
     ``terrain.release`` scenario also when the weak layer fails under the slab's weight
     somewhere in the polygon's rectangle (steep DEM cells: a property of the terrain)."""
     if scn.terrain is not None and scn.terrain.get("release"):
@@ -512,9 +513,15 @@ def warn_resolution(scn: Any) -> None:
             )
     lam = float(theory.elastic_length(scn.params))
     if scn.setup.dx > lam / 5:
+        # the shipped slopes run at dx 0.2 m (Lambda/5 = 0.133 m): the guide's "Grid
+        # resolution" section gives what halving dx changed for them
+        grf = (scn.strength or {}).get("kind") == "grf"
+        same = f" and strength.field_dx = {scn.setup.dx:g}, the same field," if grf else ""
         warnings.warn(
             f"dx = {scn.setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip "
-            "stress concentration is under-resolved; results may depend on dx",
+            "stress concentration is under-resolved; results may depend on dx (check with "
+            f"dx = {scn.setup.dx / 2:g} m{same} as the docs' Slopes page did for the "
+            "shipped slopes)",
             stacklevel=3,
         )
 

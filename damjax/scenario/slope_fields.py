@@ -307,8 +307,8 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
     (`SlopeResult`).
 
     ``resume``: `simulate_slope`'s state, start_chunk, history and callback (checkpoints).
-    The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]),
-    ``start_m`` and ``start_slope_deg``.
+    The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]; None
+    where the up-slope front did not arrest), ``start_m`` and ``start_slope_deg``.
     """
     prep = prepared(scn)
     setup, slope, start = prep.setup, prep.slope_deg, prep.setup.start
@@ -320,7 +320,9 @@ def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
                 warnings.warn(note.text(), SlopeRunWarning, stacklevel=2)
         res = simulation.run(prep, progress=progress, **resume)
     s = res.summary
-    s["upslope_arrest_position_m"] = start[0] + s["upslope_arrest_distance_m"]
+    # from the lower edge, where the up-slope front arrested (None otherwise)
+    d = s["upslope_arrest_distance_m"]
+    s["upslope_arrest_position_m"] = None if d is None else start[0] + d
     s["start_m"] = [start[0], start[1]]
     i = min(int(start[0] / setup.dx), np.shape(slope)[0] - 1)
     j = min(int(start[1] / setup.dx), np.shape(slope)[1] - 1)

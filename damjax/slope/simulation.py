@@ -39,7 +39,7 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
 from damjax.core.step import column_height
-from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
+from damjax.diagnostics import ARREST_MARGIN, ARREST_QUIET, weak_layer_damage
 from damjax.materials.slab_fracture import (
     FRACTURE_OPENING,
     band_opening,
@@ -89,8 +89,11 @@ class SlopeResult:
         slope_deg: (nx, ny) local slope angle psi [deg].
         snapshots: per chunk: ``time`` [s], the height map [m] and the broken map (0/1).
         summary: diagnostics by name, units in the key (``release_area_m2``,
-            ``upslope_arrest_distance_m``, ``wall_time_s``, ...). ``release_area_m2``
-            counts every failed cell, the saw's cut included (``sawn_area_m2``); where
+            ``upslope_extent_m``, ``wall_time_s``, ...); the slopes guide's "The summary"
+            explains every key. ``upslope_front`` and ``crossslope_front`` say what the
+            fronts did ("arrested", "reached_edge", "moving", "sawn_only"); the arrest
+            distances are None unless that front arrested. ``release_area_m2`` counts
+            every failed cell, the saw's cut included (``sawn_area_m2``); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
             release is the cut (a warning says so).
         setup: the `SlopeSetup` that was run.
@@ -334,6 +337,45 @@ def overloaded_fraction(params: PSTParams, slope_deg: Any, tau_peak: Any) -> flo
 
 def _ratio_or_none(v: float, cs: float) -> float | None:
     return v / cs if math.isfinite(v) else None
+
+
+# states of a front in the summary (``upslope_front``, ``crossslope_front``)
+FRONT_STATES = ("arrested", "reached_edge", "moving", "sawn_only")
+
+
+def _front_state(
+    dist: np.ndarray, t_b: np.ndarray, edge: float, t_end: float, dx: float
+) -> tuple[str, float | None]:
+    """(state, speed at the end [m/s] or None) of the release's outline in one direction.
+
+    ``dist``: each particle's distance from the start in that direction [m]; ``edge``:
+    the area's edge in it [m]. The outline is the failed particle farthest from the start
+    over the whole map. As a PST's tip (`damjax.diagnostics.arrest`): "reached_edge" when
+    the outline lies within `ARREST_MARGIN` (2 m) of the edge, "moving" when it advanced by
+    more than one cell in the last `ARREST_QUIET` s (the speed is that advance over
+    `ARREST_QUIET`), "arrested" otherwise. Failures behind the outline (the released slab
+    loading its toe, say) move no outline.
+    """
+    failed = np.isfinite(t_b)
+    if not failed.any():
+        return "sawn_only", None
+    now = float(np.max(dist[failed]))
+    if edge - now < ARREST_MARGIN:
+        return "reached_edge", None
+    early = failed & (t_b <= t_end - ARREST_QUIET + 1e-9)
+    before = float(np.max(dist[early])) if early.any() else -math.inf
+    if now - before > dx * (1.0 + 1e-6):
+        return "moving", (now - before) / ARREST_QUIET if math.isfinite(before) else None
+    return "arrested", None
+
+
+def _crossslope_state(states: list[str]) -> str:
+    """One state for both sides: moving if either side moves, else arrested if either side
+    arrested (the other reached its edge), else the common state."""
+    for state in ("sawn_only", "moving", "arrested"):
+        if state in states:
+            return state
+    return "reached_edge"
 
 
 RELEASE_DAMAGE_WIDTH = 0.5  # relative width w of the smooth damage ramp (see particle_damage)
@@ -595,7 +637,6 @@ def run(
     band_x = np.abs(yp - y0) <= SPEED_BAND
     band_y = np.abs(xp - x0) <= SPEED_BAND
     up = np.max(np.where(broken & band_x, xp - x0, 0.0))
-    x_top = np.max(np.where(broken, xp, 0.0))
     cs = float(theory.shear_wave_speed(params))
     saw_r = float(final.saw_pos)
     v_up, v_up_peak = _front_speed(
@@ -603,6 +644,13 @@ def run(
     )
     dy = np.abs(yp[band_y] - y0)
     across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
+    # each side of the start on its own (the farther one is ``across``)
+    side_extent = {
+        side: float(
+            np.max(np.where(np.isfinite(t_b[band_y]) & (sign * (yp[band_y] - y0) >= 0), dy, 0.0))
+        )
+        for side, sign in (("-y", -1.0), ("+y", 1.0))
+    }
     v_cross, v_cross_peak = _front_speed(
         dy, t_b[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
     )
@@ -614,23 +662,46 @@ def run(
         fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
             m for b, m in FAULT_MESSAGES.items() if int(final.fault) & b
         )
-    # the up-slope front is still moving at the end unless no weak layer up-slope of the
-    # start failed in the last ARREST_QUIET s: "below the top" alone may be a crack that
-    # ran out of simulated time. Failures below the start are left out: the released slab
-    # keeps loading the toe long after the front stopped (Fig. 12 seed 0, 5 s: 2900 cells
-    # at x < 5 m failed after 3 s, none up-slope of the start).
+    # `front_quiet_at_end`: no weak layer up-slope of the start failed in the last
+    # ARREST_QUIET s (failures below the start are left out: the released slab keeps
+    # loading the toe long after the front stopped; Fig. 12 seed 0, 5 s: 2900 cells at
+    # x < 5 m failed after 3 s, none up-slope of the start)
     up_t = t_b[broken & (xp >= x0)]
     last_up = float(up_t.max()) if up_t.size else math.nan
     t_end = float(final.time)
     quiet = bool(not up_t.size or t_end - last_up >= ARREST_QUIET - 1e-9)
+    # the fronts' states from the release's outline over the whole map: its top for the
+    # up-slope front, its farthest points on either side of the start across
+    sawn_only = bool(final.saw_active)
+    if sawn_only:
+        up_state, up_end = "sawn_only", None
+        side_states = {"-y": ("sawn_only", None), "+y": ("sawn_only", None)}
+    else:
+        up_state, up_end = _front_state(xp - x0, t_b, setup.length - x0, t_end, setup.dx)
+        side_states = {
+            "-y": _front_state(y0 - yp, t_b, y0, t_end, setup.dx),
+            "+y": _front_state(yp - y0, t_b, setup.width - y0, t_end, setup.dx),
+        }
+    cross_state = _crossslope_state([st for st, _ in side_states.values()])
+    cross_end = max(
+        (v for st, v in side_states.values() if st == "moving" and v is not None), default=None
+    )
+    cross_arrest = max(
+        (side_extent[side] for side, (st, _) in side_states.items() if st == "arrested"),
+        default=None,
+    )
     summary = {
-        "upslope_arrest_distance_m": float(up),
-        "arrested_before_top": bool(x_top < setup.length - 2.0) and quiet,
+        "upslope_front": up_state,
+        "crossslope_front": cross_state,
+        "upslope_extent_m": float(up),
+        "upslope_arrest_distance_m": float(up) if up_state == "arrested" else None,
+        "crossslope_extent_m": float(across),
+        "crossslope_arrest_distance_m": cross_arrest if cross_state == "arrested" else None,
+        "upslope_front_end_speed_over_cs": None if up_end is None else up_end / cs,
+        "crossslope_front_end_speed_over_cs": None if cross_end is None else cross_end / cs,
+        "arrested_before_top": up_state == "arrested",
         "front_quiet_at_end": quiet,
         "last_upslope_failure_time_s": last_up if up_t.size else None,
-        # measured across the start, in the band |x - x0| <= SPEED_BAND (the band of the
-        # cross-slope speed), not over the whole map
-        "crossslope_extent_m": float(across),
         # None where a band had too few failures to fit (JSON has no NaN)
         "upslope_crack_speed_over_cs": _ratio_or_none(v_up_peak, cs),
         "crossslope_crack_speed_over_cs": _ratio_or_none(v_cross_peak, cs),
