@@ -1,17 +1,17 @@
-"""Run benchmark cases, each in its own process (clean peak-RSS figures).
+"""Timing cases of damjax, each run in its own process (clean peak-memory figures).
 
-    python -m benchmarks                 # every case
-    python -m benchmarks pst_f32 mpm88   # some cases
-    python -m benchmarks --list
-    python -m benchmarks gpu [--dry-run] # the prepared GPU check (benchmarks/gpu.py)
+    python -m benchmarks                 # the list of cases and commands (runs nothing)
+    python -m benchmarks pst_f32 mpm88   # some cases, one JSON row per line on stdout
     python -m benchmarks sweep256 slope_large --dry-run  # toy sizes of these cases
-    python -m benchmarks --dry-run       # every case that has toy sizes (DRY_RUN_CASES)
+    python -m benchmarks gpu [--dry-run] # a command with options of its own (-h for them)
 
-Each case prints one JSON object per line on stdout.
+Nothing runs unless named. The verification scripts, which feed the documentation's
+verification pages and figures, are in verification/ (``python -m verification``).
 """
 
 from __future__ import annotations
 
+import ast
 import os
 import subprocess
 import sys
@@ -19,29 +19,47 @@ import sys
 from benchmarks.cases import CASES
 
 # commands with options of their own (not cases): name -> module run as ``python -m``
-COMMANDS = {"gpu": "benchmarks.gpu"}
+COMMANDS = {
+    "gpu": "benchmarks.gpu",
+    "alternate": "benchmarks.alternate",
+    "cli_startup": "benchmarks.cli_startup",
+    "slab_fracture_timing": "benchmarks.slab_fracture_timing",
+}
 # cases with toy sizes under --dry-run (they read DAMJAX_BENCH_DRY_RUN); the others would
 # run at full size, so --dry-run refuses them
 DRY_RUN_CASES = ("sweep256", "slope_large")
+
+
+def _first_line(doc: str | None) -> str:
+    return " ".join((doc or "").strip().split("\n\n")[0].split())
+
+
+def listing() -> str:
+    """One line per case, then one per command."""
+    lines = ["cases (python -m benchmarks CASE ...):"]
+    lines += [f"  {name:21s} {_first_line(fn.__doc__)}" for name, fn in CASES.items()]
+    lines.append("commands (python -m benchmarks COMMAND -h for their options):")
+    for name, module in COMMANDS.items():  # the docstring, without importing the module
+        path = os.path.join(os.path.dirname(__file__), module.split(".")[-1] + ".py")
+        with open(path, encoding="utf-8") as fh:
+            doc = ast.get_docstring(ast.parse(fh.read()))
+        lines.append(f"  {name:21s} {_first_line(doc)}")
+    return "\n".join(lines)
 
 
 def main(argv: list[str]) -> int:
     if argv and argv[0] in COMMANDS:
         return subprocess.run([sys.executable, "-m", COMMANDS[argv[0]], *argv[1:]]).returncode
     if "-h" in argv or "--help" in argv:
-        print(__doc__.strip())
-        print(f"\ncases: {', '.join(CASES)}; commands: {', '.join(COMMANDS)}")
-        return 0
-    if "--list" in argv:
-        for name, fn in CASES.items():
-            print(f"{name:16s} {(fn.__doc__ or '').strip().splitlines()[0]}")
-        print(f"{'gpu':16s} GPU tests and figures in one command (python -m benchmarks gpu -h)")
+        print((__doc__ or "").strip() + "\n")
+    if not argv or {"--list", "-h", "--help"} & set(argv):
+        print(listing())
         return 0
     env = None
     if "--dry-run" in argv:  # toy sizes, for cases that read DAMJAX_BENCH_DRY_RUN
         argv = [a for a in argv if a != "--dry-run"]
         env = {**os.environ, "DAMJAX_BENCH_DRY_RUN": "1"}
-    names = argv or list(DRY_RUN_CASES if env else CASES)
+    names = argv or list(DRY_RUN_CASES)
     unknown = [n for n in names if n not in CASES]
     if unknown:
         sys.stderr.write(f"unknown case(s) {unknown}; choose from {list(CASES)}\n")

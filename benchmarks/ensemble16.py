@@ -73,7 +73,7 @@ def part_sequential(members: int, duration: float, out: Path) -> dict:
             s = slope_fields.simulate(ensemble.member_scenario(ens, i)).summary
         wall += s["wall_time_s"]
         compile_s += s["compile_time_s"]
-        rows.append([s["release_area_m2"], s["upslope_arrest_distance_m"]])
+        rows.append([s["release_area_m2"], s["upslope_extent_m"]])
     end_to_end = time.perf_counter() - t0
     (out / "sequential.json").write_text(json.dumps(rows))
     return dict(
@@ -129,7 +129,7 @@ def part_ensemble(members: int, duration: float, out: Path) -> dict:
     if seq.is_file():
         ref = json.loads(seq.read_text())
         area = ds["release_area_m2"].values
-        up = ds["upslope_arrest_distance_m"].values
+        up = ds["upslope_extent_m"].values
         row["max_release_area_diff_vs_sequential_m2"] = float(
             max(abs(a - r[0]) for a, r in zip(area, ref, strict=True))
         )

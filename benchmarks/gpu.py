@@ -510,7 +510,7 @@ REAL_PATH_FILE = "real_path_avakot.pkl.gz"  # in the --prepare folder
 
 
 def real_path_member(dry: bool = False) -> dict:
-    """Member 0 of the shipped scenario of `REAL_PATH` (``dry``: `benchmarks.real_path`'s
+    """Member 0 of the shipped scenario of `REAL_PATH` (``dry``: `verification.real_path`'s
     toy version), built on this machine with ``accumulation = "fixed"`` (what "auto" picks
     on a GPU; "auto" would resolve to this machine's backend when the model is built): the
     model and state as NumPy trees, the chunk layout, and the build time [s]."""
@@ -519,10 +519,10 @@ def real_path_member(dry: bool = False) -> dict:
     import jax
     import numpy as np
 
-    from benchmarks import real_path
     from damjax import scenario
     from damjax.ensemble import batch as eb
     from damjax.ensemble.spec import from_scenario
+    from verification import real_path
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
@@ -685,22 +685,9 @@ def _meta_fallback() -> dict:
 
 
 def _git_commit() -> str | None:
-    # DAMJAX_COMMIT, where given, names the code that runs: a borrowed machine's copy may
-    # carry a git directory that does not match its working tree
-    if os.environ.get("DAMJAX_COMMIT"):
-        return os.environ["DAMJAX_COMMIT"]
-    try:
-        res = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=10,
-        )
-        commit = res.stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        commit = ""
-    return commit or None
+    from benchmarks.cases import git_commit
+
+    return git_commit()
 
 
 def _child_meta() -> dict:

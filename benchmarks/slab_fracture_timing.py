@@ -9,9 +9,9 @@ ratio to that step. 100 m PST, dx 0.02 m, sigma_t 6 kPa, theta 150 Pa/m.
     python -m benchmarks.slab_fracture_timing --repeats 7
 
 Measured 2026-11-25 on an idle 2-core machine on the code of commit 569ccad: per step (this loop,
-the first 400 steps, all elastic; results_slab_fracture/step_timing.jsonl) paper 1.10 x,
+the first 400 steps, all elastic; results/slab_fracture/step_timing.jsonl) paper 1.10 x,
 crack_band 1.50 x (0.283 / 0.387 / 0.257 ms); whole 3 s runs (``--full 150 30 --repeats
-3``, results_slab_fracture/full_run_timing.jsonl) crack_band 9.9 / 10.8 s, paper 9.8 /
+3``, results/slab_fracture/full_run_timing.jsonl) crack_band 9.9 / 10.8 s, paper 9.8 /
 10.9 s, without the lattice 10.3 / 12.6 s at theta 150 / 30. At commit 1137f3f, before the
 Newton steps of settled bands were skipped and before softened_p0 lost its asinh, the
 per-step ratio was 1.85 x (step_timing_1137f3f.jsonl), and a whole crack_band run at

@@ -25,10 +25,8 @@ seconds; their rows carry ``"dry_run": true``.
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import math
 import os
-import subprocess
 import time
 from pathlib import Path
 from typing import Any
@@ -59,22 +57,14 @@ def meta() -> dict[str, Any]:
     """Where and when a row was measured."""
     import jax
 
-    try:
-        commit = subprocess.run(
-            ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-        ).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        commit = ""
+    from benchmarks.cases import stamp
+
     dev = jax.devices()[0]
     return dict(
         device=getattr(dev, "device_kind", str(dev)),
         platform=dev.platform,
         n_devices=len(jax.devices()),
-        date=datetime.date.today().isoformat(),
-        commit=commit or None,
+        **stamp(),
         dry_run=dry_run(),
     )
 

@@ -2,7 +2,8 @@
 
 Public API (one screen; the package's layers are mapped in CONTRIBUTING.md):
 
-- `SnowParams` (alias `PSTParams`): slab and weak-layer parameters, differentiable leaves;
+- `PSTParams`: slab and weak-layer parameters, differentiable leaves (declared with their
+  units and ranges in `damjax.params`);
 - `PSTSetup`, `simulate_pst` -> `PSTResult`: a propagation saw test;
 - `SlopeSetup`, `simulate_slope` -> `SlopeResult`: a slope-scale release on terrain;
 - `sweep`: a batch of PSTs as one vmapped (sharded) computation (`last_sweep_plan`: how
@@ -18,7 +19,7 @@ Public API (one screen; the package's layers are mapped in CONTRIBUTING.md):
 
 from damjax import calibrate, diagnostics, plot, runner, scenario, theory
 from damjax._version import __version__
-from damjax.params import PSTParams, PSTSetup, SlopeSetup, SnowParams
+from damjax.params import PSTParams, PSTSetup, SlopeSetup
 from damjax.pst import PSTResult, arrest_position_smooth, make_layout, simulate_pst
 from damjax.sensitivity import gradient_check
 from damjax.slope import SlopeResult, simulate_slope
@@ -30,7 +31,6 @@ __all__ = [
     "PSTSetup",
     "SlopeResult",
     "SlopeSetup",
-    "SnowParams",
     "__version__",
     "arrest_position_smooth",
     "calibrate",

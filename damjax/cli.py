@@ -30,32 +30,25 @@ import threading
 import warnings
 from typing import Any, NoReturn
 
-from damjax.params import PSTParams, PSTSetup
-from damjax.validation import PARAM_RULES, SETUP_CHOICES, SETUP_RULES, setup_problems
+from damjax.params import PSTParams, PSTSetup, Spec, specs
 
-_PARAM_FIELDS = [f.name for f in dataclasses.fields(PSTParams)]
-_SCALAR_PARAM_FIELDS = [n for n in _PARAM_FIELDS if n not in ("strength_profile", "slope_profile")]
-_SETUP_FIELDS = [
-    "length",
-    "dx",
-    "duration",
-    "lateral",
-    "cfl",
-    "particles_per_cell",
-    "dtype",
-    "chunk_steps",
-    "dim",
-    "width",
-    "slab_fracture",
-    "seed",
-]
-_INT_FIELDS = {"particles_per_cell", "chunk_steps", "dim", "seed"}
-_STR_FIELDS = {"lateral", "dtype", "slab_fracture"}
-# help of parameters whose default is None (the model's own)
-_NONE_HELP = {
-    "slab_fracture_energy": "default: the slab model's (--slab-fracture): 0.12 J/m^2 for "
-    "crack_band, none (perfectly plastic) for paper",
-}
+# the flags of `damjax pst`: the fields whose declarations say so (`damjax.params`); the
+# strength profile's flag reads a CSV (`--strength-profile FILE.csv`)
+_PARAM_FLAGS = [s for s in specs(PSTParams).values() if s.cli and s.kind != "profile"]
+_SETUP_FLAGS = [s for s in specs(PSTSetup).values() if s.cli and s.kind != "bool"]
+
+
+def _help(spec: Spec, default: Any) -> str:
+    """A flag's help: its meaning, unit and valid range, and its default."""
+    unit = f" [{spec.unit}]" if spec.unit else ""
+    if spec.kind == "choice":
+        valid = ""  # the metavar lists them
+    elif isinstance(spec.valid, tuple):  # --dim
+        valid = "one of " + ", ".join(str(v) for v in spec.valid)
+    else:
+        valid = ("an integer in " if spec.kind == "int" else "in ") + str(spec.valid)
+    default = f"default: {spec.optional}" if spec.optional else f"default {default}"
+    return f"{spec.doc}{unit}" + (f", {valid}" if valid else "") + f"; {default}"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -131,15 +124,15 @@ def _enable_compilation_cache() -> None:
 def _add_pst_flags(p: argparse.ArgumentParser) -> None:
     defaults_p, defaults_s = PSTParams(), PSTSetup()
     g = p.add_argument_group("physical parameters (SI units; defaults: paper baseline)")
-    for name in _SCALAR_PARAM_FIELDS:
+    for spec in _PARAM_FLAGS:
+        default = getattr(defaults_p, spec.name)
         g.add_argument(
-            "--" + name.replace("_", "-"),
-            dest=name,
+            spec.flag,
+            dest=spec.name,
             type=_number,
-            default=getattr(defaults_p, name),
+            default=default,
             action=_StoreGiven,
-            help=f"{PARAM_RULES[name][1]}; "
-            + _NONE_HELP.get(name, f"default {getattr(defaults_p, name)}"),
+            help=_help(spec, default),
         )
     g = p.add_argument_group(
         "snow profile (slab thickness, density, E(rho), slope and weak-layer strength from "
@@ -191,21 +184,16 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
         "extrapolated over the PST (paper Figs. 10-11)",
     )
     g = p.add_argument_group("numerics")
-    for name in _SETUP_FIELDS:
-        typ = str if name in _STR_FIELDS else _number
-        default = getattr(defaults_s, name)
-        if name in SETUP_CHOICES:
-            valid = "one of " + ", ".join(SETUP_CHOICES[name])
-            metavar = "{" + ",".join(SETUP_CHOICES[name]) + "}"
-        else:
-            valid, metavar = SETUP_RULES[name][1], None
+    for spec in _SETUP_FLAGS:
+        default = getattr(defaults_s, spec.name)
+        choice = spec.kind == "choice"
         g.add_argument(
-            "--" + name.replace("_", "-"),
-            dest=name,
-            type=typ,
+            spec.flag,
+            dest=spec.name,
+            type=str if choice else _number,
             default=default,
-            metavar=metavar,
-            help=f"{valid}; default {default}",
+            metavar="{" + ",".join(spec.valid) + "}" if choice else None,
+            help=_help(spec, default),
         )
     g.add_argument(
         "--controlled",
@@ -219,11 +207,12 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
 
 def _setup_from(ns: argparse.Namespace) -> PSTSetup:
     kw: dict[str, Any] = {}
-    for name in _SETUP_FIELDS:
-        v = getattr(ns, name)
-        if name in _INT_FIELDS and isinstance(v, float) and math.isfinite(v) and v.is_integer():
+    for spec in _SETUP_FLAGS:
+        v = getattr(ns, spec.name)
+        integer = spec.kind == "int"
+        if integer and isinstance(v, float) and math.isfinite(v) and v.is_integer():
             v = int(v)
-        kw[name] = v
+        kw[spec.name] = v
     return PSTSetup(controlled=ns.controlled, **kw)
 
 
@@ -234,29 +223,30 @@ def _print_summary(summary: dict[str, Any]) -> None:
         print(f"{k:34s} {v}")
 
 
-def _with_strength_profile(params: PSTParams, setup: PSTSetup, path: str, fit: str) -> PSTParams:
-    """``params`` with ``strength_profile`` read from a CSV (`fields.pst_strength_profile`),
-    on one point per grid node of the PST; ValueError (one line) on a bad file."""
+def _strength_profile_reader(path: str, fit: str) -> Any:
+    """``resolve(setup, params)`` for `damjax.pst.prepare`: ``params`` with
+    ``strength_profile`` read from a CSV (`fields.pst_strength_profile`), on one point per
+    grid node of the (valid) setup; ValueError (one line) on a bad file."""
     from damjax import fields
 
-    problems = setup_problems(setup)
-    if problems:  # the grid is needed to sample the profile: report the setup first
-        raise ValueError("\n".join(problems))
-    num = max(2, int(round(float(setup.length) / float(setup.dx))) + 1)
-    try:
-        prof = fields.pst_strength_profile(
-            path,
-            float(setup.length),
-            num,
-            fit=fit,
-            steady_length=float(params.steady_length),
-            tau_peak=float(params.tau_peak),
-        )
-    except FileNotFoundError:
-        raise ValueError(f"--strength-profile {path}: no such file") from None
-    except ValueError as exc:
-        raise ValueError(f"--strength-profile {exc}") from None
-    return dataclasses.replace(params, strength_profile=prof)
+    def resolve(setup: PSTSetup, params: PSTParams) -> PSTParams:
+        num = max(2, int(round(float(setup.length) / float(setup.dx))) + 1)
+        try:
+            prof = fields.pst_strength_profile(
+                path,
+                float(setup.length),
+                num,
+                fit=fit,
+                steady_length=float(params.steady_length),
+                tau_peak=float(params.tau_peak),
+            )
+        except FileNotFoundError:
+            raise ValueError(f"--strength-profile {path}: no such file") from None
+        except ValueError as exc:
+            raise ValueError(f"--strength-profile {exc}") from None
+        return dataclasses.replace(params, strength_profile=prof)
+
+    return resolve
 
 
 def _params_from_profile(ns: argparse.Namespace) -> PSTParams:
@@ -278,8 +268,9 @@ def _params_from_profile(ns: argparse.Namespace) -> PSTParams:
     except ValueError as exc:
         msg = str(exc).replace("weak_layer = ", "--weak-layer ")
         raise ValueError(f"--profile {msg}" if "--weak-layer" not in msg else msg) from None
+    units = {"thickness": "m", "density": "kg/m^3", "youngs_modulus": "Pa", "slope_deg": "deg"}
     set_ = [
-        f"{k} = {float(getattr(params, k)):.4g}"
+        f"{k} = {float(getattr(params, k)):.4g} {units.get(k, 'Pa')}"
         for k in ("thickness", "density", "youngs_modulus", "slope_deg", "tau_peak")
         if k not in given and float(getattr(params, k)) != float(getattr(PSTParams(), k))
     ]
@@ -288,8 +279,8 @@ def _params_from_profile(ns: argparse.Namespace) -> PSTParams:
 
 
 def cmd_pst(ns: argparse.Namespace) -> int:
-    from damjax import io
-    from damjax.pst import simulate_pst
+    from damjax import io, pst
+    from damjax.validation import InputError
 
     if ns.profile is None:
         for flag, v in (("--weak-layer", ns.weak_layer), ("--profile-date", ns.profile_date)):
@@ -297,7 +288,7 @@ def cmd_pst(ns: argparse.Namespace) -> int:
                 raise ValueError(f"{flag} {v}: needs --profile FILE")
         if ns.modulus != "scapozza":
             raise ValueError(f"--modulus {ns.modulus}: needs --profile FILE")
-        params = PSTParams(**{name: getattr(ns, name) for name in _SCALAR_PARAM_FIELDS})
+        params = PSTParams(**{spec.name: getattr(ns, spec.name) for spec in _PARAM_FLAGS})
     setup = _setup_from(ns)
     if ns.strength_fit != "none" and ns.strength_profile is None:
         raise ValueError(f"--strength-fit {ns.strength_fit}: needs --strength-profile FILE")
@@ -309,16 +300,22 @@ def cmd_pst(ns: argparse.Namespace) -> int:
     if ns.plot:
         io.check_figure_path(ns.plot)
     _enable_compilation_cache()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    # the warnings as they come: those on the input before the run
+    with _WarningPrinter():
         if ns.profile is not None:
             params = _params_from_profile(ns)
+        resolve = None
         if ns.strength_profile is not None:
-            params = _with_strength_profile(params, setup, ns.strength_profile, ns.strength_fit)
-        result = simulate_pst(params, setup, progress=not ns.quiet)
-    for w in caught:
-        if issubclass(w.category, UserWarning):
-            sys.stderr.write(f"damjax: warning: {w.message}\n")
+            resolve = _strength_profile_reader(ns.strength_profile, ns.strength_fit)
+        try:
+            prep = pst.prepare(params, setup, resolve=resolve, caller="damjax pst")
+        except InputError as exc:
+            for note in exc.notes:  # a unit mix-up may be the cause of the problems
+                warnings.warn(note.text(), stacklevel=1)
+            raise
+        for note in prep.notes:
+            warnings.warn(note.text(), stacklevel=1)
+        result = pst.run(prep, progress=not ns.quiet)
     # the summary first: a figure that cannot be written after all (a full disk) does
     # not take the run's result with it
     if ns.json:

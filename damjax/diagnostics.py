@@ -47,10 +47,10 @@ d L / d theta by AD against the least-squares slope of the event-based L_ca over
 720-880 Pa/m, 11 runs; `damjax.gradient_check`): softening 0: AD -0.01716 m/(Pa/m)
 averaged over the window (-0.01647 at theta 800) against -0.01723 (the event-based
 failure of earlier versions gave -0.00073). On the paper's brittle baseline (100 m,
-dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m benchmarks
-gradient_full`): AD -0.2487 averaged over the window (-0.2252 at theta 500) against -0.2472
-(earlier versions: -0.0012). `python -m benchmarks gradient_events` measures the other
-fields and softening 0.3.
+dx 0.02 m, 3 s, float32, theta 450-550 Pa/m, 11 runs; `python -m
+verification.gradients full`): AD -0.2487 averaged over the window (-0.2252 at theta 500)
+against -0.2472 (earlier versions: -0.0012). `python -m verification.gradients events`
+measures the other fields and softening 0.3.
 
 When a slab fracture stops the crack the tip freezes abruptly: the maximum slip jumps
 from above u_r to about 0.84 u_r between neighbouring particles, no segment lies on
@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.validation import is_plastic
+from damjax.params import is_plastic
 
 SPEED_WINDOW = 0.02  # [s]
 ARREST_QUIET = 0.3  # [s]
@@ -225,7 +225,13 @@ def summarize(
 
     A crack arrests only after it ran by itself: while the saw still cuts (it stops once
     the tip leads it, `damjax.core.model`), a tip standing still is a slow saw, not an
-    arrest. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
+    arrest. ``crack_front`` says which of these happened: "arrested", "reached_end" (the
+    tip came within `ARREST_MARGIN` of the far end), "moving" (still running at the end
+    of the run), "sawn_only" (the crack never ran ahead of the saw) or "controlled" (an
+    unbreakable layer sawn on purpose). ``critical_cut_length_theory_m`` is the bar
+    model's cut at which the crack runs (`damjax.theory.pst_critical_cut_length`, which
+    accounts for the strength rising beyond L_ss): None where that model predicts no cut
+    starts a crack. With a ``strength_profile`` the closed forms' L_ss, tau_p and theta do not
     describe the run, so ``arrest_length_m`` (L_ca - L_ss) and the theory values
     (``critical_cut_length_theory_m``, ``runaway_gradient_pa_per_m``) are None; so are
     the theory values with a softening weak layer (they are the brittle closed forms). A
@@ -260,18 +266,34 @@ def summarize(
     # the bar model behind a_c and theta_run needs a slab that slides once released
     psi = float(np.max(p.slope_profile)) if p.slope_profile is not None else float(p.slope_deg)
     slides = psi > float(p.friction_deg)
+    final_tip = float(result.tip[-1]) if result.tip.size else math.nan
+    if s.controlled:
+        front = "controlled"
+    elif not saw_stopped:
+        front = "sawn_only"
+    elif arrested:
+        front = "arrested"
+    elif final_tip > s.length - ARREST_MARGIN:
+        front = "reached_end"
+    else:
+        front = "moving"
+    a_c_th = (
+        None
+        if s.controlled or not slides or profiled or not brittle
+        else float(theory.pst_critical_cut_length(p, s.lateral))
+    )
     return {
         "lateral": s.lateral,
         "controlled": bool(s.controlled),
         "arrested": arrested,
+        "crack_front": front,
         "arrest_position_m": _none(l_ca),
         "arrest_length_m": _none(l_ca - lss) if arrested and not profiled else None,
         "arrest_time_s": _none(t_stop) if arrested else None,
-        "final_tip_m": _none(float(result.tip[-1]) if result.tip.size else math.nan),
+        "final_tip_m": _none(final_tip),
         "critical_cut_length_m": _none(saw_position) if saw_stopped else None,
-        "critical_cut_length_theory_m": None
-        if s.controlled or not slides or profiled or not brittle
-        else _none(float(theory.critical_cut_length(p, s.lateral))),
+        # None also where the closed form says no cut starts a crack (inf)
+        "critical_cut_length_theory_m": None if a_c_th is None else _none(a_c_th),
         # an elastic brittle slab cannot arrest below this gradient (theory.runaway_gradient)
         "runaway_gradient_pa_per_m": None
         if s.controlled or is_plastic(p) or not slides or profiled or not brittle

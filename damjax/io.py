@@ -336,3 +336,78 @@ def dataset_fields(ds: Any) -> dict[str, Any]:
             out[name] = ds[name].values
     out["snapshots"] = snaps
     return out
+
+
+# --------------------------------------------------------------------------- TOML
+
+
+def plain(value: Any) -> Any:
+    """A value as plain python for TOML or JSON (floats, lists of floats, str, bool, int)."""
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    arr = np.asarray(value)
+    if arr.dtype == bool:
+        return bool(arr) if arr.ndim == 0 else arr.tolist()
+    if np.issubdtype(arr.dtype, np.integer):
+        return int(arr) if arr.ndim == 0 else arr.tolist()
+    arr = arr.astype(float)
+    return float(arr) if arr.ndim == 0 else arr.tolist()
+
+
+def plain_fields(obj: Any) -> dict[str, Any]:
+    """The fields of a dataclass (parameters, a setup) as plain python, None left out."""
+    out = {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def _toml_str(s: str) -> str:
+    out = ['"']
+    for ch in s:
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\t":
+            out.append("\\t")
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04x}")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def toml_value(v: Any) -> str:
+    """A value as TOML writes it (``inf``, ``"text"``, ``[1.0, 2.0]``, ...)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return _toml_str(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, np.ndarray) or np.isscalar(v):
+        return toml_value(plain(v))
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def toml_dumps(data: dict[str, Any]) -> str:
+    """TOML text of a dict: top-level keys first, then one table per dict value."""
+    lines = [f"{k} = {toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            lines.append("")
+            lines.append(f"[{k}]")
+            lines += [f"{kk} = {toml_value(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"

@@ -116,7 +116,10 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
 def plot_slope(result: Any, path: str | None = None) -> Any:
     """Maps of a slope-scale release: column height with the crown (h < 0.98 h0, blue)
     and the stauchwall (h > 1.02 h0, red), crack arrival time [s], local crack speed
-    over c_s (`damjax.slope.results.crack_speed_map`), weak-layer strength [Pa]."""
+    over c_s (`damjax.slope.results.crack_speed_map`; its colour bar runs from 0 to the
+    slab's wave speed, the most a front can run, and cells that failed together, which
+    have no front speed, are cyan), weak-layer strength [Pa]. The title says what the
+    fronts did (`slope_outcome`)."""
     plt = _plt()
     from matplotlib.colors import ListedColormap
 
@@ -161,20 +164,42 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     ax.plot([y0], [x0], "k*", ms=12)
     ax.set_xlabel("y across [m]")
     ax = axes[2]
-    from damjax import theory
-    from damjax.slope.results import crack_speed_map
+    from damjax.slope.results import (
+        crack_speed_map,
+        front_speed_limit,
+        simultaneous_failure_map,
+    )
 
     cs = float(theory.shear_wave_speed(result.params))
+    limit = front_speed_limit(result.params) / cs
+    # the map holds no value above the slab's wave speed (cells that failed together
+    # have no front speed: drawn apart), so the colour bar spans the true range
     im = ax.imshow(
         crack_speed_map(result) / cs,
         origin="lower",
         extent=ext,
         cmap="plasma",
         vmin=0.0,
-        vmax=2.0,
+        vmax=limit,
         aspect="equal",
     )
+    together = simultaneous_failure_map(result)
+    if together.any():
+        ax.imshow(
+            np.ma.masked_where(~together, together),
+            origin="lower",
+            extent=ext,
+            cmap=ListedColormap(["tab:cyan"]),
+            vmin=0,
+            vmax=1,
+            aspect="equal",
+        )
     fig.colorbar(im, ax=ax, shrink=0.8, label=r"local crack speed / $c_s$")
+    ax.set_title(
+        f"crack speed, 0 to the slab's wave speed {limit:.2f} $c_s$;\n"
+        f"cyan: failed together, no front ({100 * together.mean():.1f} % of the area)",
+        fontsize=9,
+    )
     ax.plot([y0], [x0], "k*", ms=12)
     ax.set_xlabel("y across [m]")
     ax = axes[3]
@@ -197,20 +222,58 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
             return f"{num(f'{d}_crack_speed_mean_over_cs', '.2f')} $c_s$ (mean)"
         return "n/a"
 
-    up = num("upslope_arrest_distance_m", ".1f")
-    if s.get("arrested_before_top", True):
-        stop = f"up-slope arrest {up} m"
-    elif s.get("front_quiet_at_end", True):
-        stop = f"crack reached the top edge ({up} m up-slope)"
-    else:
-        stop = f"front still moving at the end ({up} m up-slope)"
     fig.suptitle(
-        f"{stop}, release area {num('release_area_m2', '.0f')} m$^2$, up-slope speed "
-        f"{speed('upslope')}, cross-slope {speed('crossslope')}"
+        f"{slope_outcome(s)}\nrelease area {num('release_area_m2', '.0f')} m$^2$, up-slope "
+        f"speed {speed('upslope')}, cross-slope {speed('crossslope')}"
     )
     if path:
         fig.savefig(path, dpi=110)
     return fig
+
+
+def slope_outcome(summary: dict[str, Any]) -> str:
+    """One line saying what the fronts of a slope run did (`SlopeResult.summary`):
+    arrested where and how far from the start, reached an edge, or still moving at the
+    end (at what speed). Summaries of older versions (without the front states) get the
+    up-slope front only."""
+    s = summary
+
+    def dist(key: str) -> str:
+        v = s.get(key)
+        return "n/a" if v is None else f"{v:.1f} m"
+
+    def end_speed(key: str) -> str:
+        v = s.get(key)
+        return "" if v is None else f" at {v:.2f} $c_s$"
+
+    up = s.get("upslope_front")
+    if up is None:  # a summary without the states
+        up = "arrested" if s.get("arrested_before_top") else "moving"
+    if up == "sawn_only":
+        return "the crack never ran ahead of the saw: the release is the cut"
+    parts = []
+    if up == "arrested":
+        parts.append(f"up-slope arrest {dist('upslope_arrest_distance_m')} from the start")
+    elif up == "reached_edge":
+        parts.append("up-slope: reached the top edge")
+    else:
+        parts.append(
+            "up-slope front still moving at the end"
+            f"{end_speed('upslope_front_end_speed_over_cs')} "
+            f"({dist('upslope_extent_m')} from the start)"
+        )
+    cross = s.get("crossslope_front")
+    if cross == "arrested":
+        parts.append(f"cross-slope arrest {dist('crossslope_arrest_distance_m')} from the start")
+    elif cross == "reached_edge":
+        parts.append("across: reached the side edges")
+    elif cross == "moving":
+        parts.append(
+            "cross-slope front still moving at the end"
+            f"{end_speed('crossslope_front_end_speed_over_cs')} "
+            f"({dist('crossslope_extent_m')} from the start)"
+        )
+    return "; ".join(parts)
 
 
 def animate_slope(result: Any, path: str, fps: int = 8) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import equinox as eqx
@@ -24,29 +25,40 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax import diagnostics, theory
+from damjax import diagnostics, io, theory
 from damjax._tracing import concrete_tree, concrete_value, is_traced
+from damjax.core import model as core_model
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: public here too)
     SAW_LEAD,
     Layout,
-    _traced,
     build,
     check_layout,
-    make_layout,
     time_step,
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
-from damjax.core.step import (
-    band_opening,
-    broken_mask,
-    column_height,
-    fracture_strain,
-    residual_shear,
-)
+from damjax.core.step import broken_mask, column_height, residual_shear
 from damjax.materials import mcc, slab_fracture, weak_layer
+from damjax.materials.slab_fracture import band_opening, fracture_strain
 from damjax.params import PSTParams, PSTSetup
-from damjax.validation import check_width, ensure_x64, expect_types, require_x64, validate
+from damjax.validation import (
+    InputError,
+    Problem,
+    check_width,
+    concrete_only,
+    dubious,
+    ensure_x64,
+    expect_types,
+    implausible,
+    param_problems,
+    raise_if,
+    require_x64,
+    resolution_note,
+    setup_problems,
+    single_run_problems,
+    size_problem,
+    warn_notes,
+)
 
 FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
 
@@ -167,18 +179,23 @@ class PSTResult:
                 "PSTResult.to_dataset: a result of concrete parameters (this one holds JAX "
                 "arrays from inside jax.grad/jit/vmap)"
             )
-        from damjax import io
         from damjax._version import __version__
-        from damjax.scenario.schema import Scenario
 
         stable = {k: v for k, v in self.summary.items() if k not in io.TIMING_KEYS}
-        scn = Scenario(name="simulate_pst", params=self.params, setup=self.setup)
+        # a scenario file of these parameters and setup (`damjax.scenario` reads it)
+        scenario = {
+            "type": "pst",
+            "name": "simulate_pst",
+            "description": "",
+            "params": io.plain_fields(self.params),
+            "setup": io.plain_fields(self.setup),
+        }
         attrs = {
             "Conventions": "CF-1.10",
             "title": "damjax PST (simulate_pst)",
             "source": f"damjax {__version__}",
             "damjax_version": __version__,
-            "scenario": scn.to_toml(),
+            "scenario": io.toml_dumps(scenario),
             "summary": io.to_json(stable),
             "fault": self.fault,
         }
@@ -192,8 +209,6 @@ class PSTResult:
     def to_netcdf(self, path: str | os.PathLike[str], snapshots: bool = True) -> None:
         """Write `to_dataset` to ``path`` (NetCDF4 with h5netcdf, else NetCDF3; atomically:
         a temporary file, then a rename). Read it with `damjax.io.open_dataset`."""
-        from damjax import io
-
         io.write_dataset(path, self.to_dataset(snapshots))
 
 
@@ -264,39 +279,187 @@ def simulate_pst(
             (checkpointing; see `damjax.core.loop.integrate`).
     """
     params = PSTParams() if params is None else params
+    resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
+    concrete_only("simulate_pst", is_traced(params), progress, resume)
+    prep = _prepared_and_warned(params, setup, layout, stacklevel=3)
+    if is_traced(params):
+        return _simulate_traced(prep)
+    return run(prep, progress=progress, **resume)
+
+
+@dataclasses.dataclass(frozen=True)
+class Prepared:
+    """A PST checked once, at the edge (`prepare`): what `run` integrates.
+
+    Attributes:
+        params: the parameters (traced ones stay traced; a scenario's [strength] table
+            sampled into ``strength_profile``).
+        setup: the setup.
+        layout: the static layout (grid, step count, slab law) the run uses.
+        notes: the warnings of the input, not yet warned (`damjax.validation.Problem`s:
+            dubious and implausible values, an under-resolved dx), for the caller to word.
+    """
+
+    params: PSTParams
+    setup: PSTSetup
+    layout: Layout
+    notes: tuple[Problem, ...] = ()
+
+
+def prepare(
+    params: PSTParams | None = None,
+    setup: PSTSetup | None = None,
+    layout: Layout | None = None,
+    *,
+    batch: bool = False,
+    given: Iterable[str] | None = None,
+    resolve: Callable[[PSTSetup, PSTParams], PSTParams] | None = None,
+    max_particles: int | None = None,
+    jitted: bool = False,
+    from_known: bool = False,
+    caller: str = "simulate_pst",
+) -> Prepared:
+    """Check a PST's input once and make its layout: the types, every value (those JAX
+    holds behind tracers under `jax.grad` and `jax.vmap` too; inside `jax.jit` only the
+    setup's), the 64-bit switch, the layout (made, or checked against the parameters)
+    and the run's size. `damjax.validation.InputError` (a ValueError, one line per problem) on
+    invalid input, carrying the notes on implausible values in ``notes``.
+
+    Args:
+        params: physical parameters (default: the paper's elastic baseline).
+        setup: numerics (default: `PSTSetup()`).
+        layout: static layout (`make_layout`), checked against the parameters; default:
+            made from them.
+        batch: batched fields allowed (`damjax.sweep`).
+        given: the parameters set explicitly (the dubious-value notes report only those
+            as ignored by a controlled run); None: all.
+        resolve: ``resolve(setup, params) -> params``, run once the setup is valid (a
+            scenario's [strength] table, sampled on the grid).
+        max_particles: the most particles a run may have (scenario files).
+        jitted: the run is traced even with concrete parameters (`run_pure`): float64
+            needs 64-bit mode on beforehand.
+        from_known: for traced parameters, the layout from the fields that are not
+            traced (`layout_from_known`), not from the values JAX holds behind them.
+        caller: the function named in type errors.
+    """
+    params = PSTParams() if params is None else params
     setup = PSTSetup() if setup is None else setup
     expect_types(
-        "simulate_pst",
+        caller,
         params=(params, PSTParams),
         setup=(setup, PSTSetup),
         layout=(layout, (Layout, type(None))),
     )
-    if is_traced(params):
-        if progress or state is not None or start_chunk or history or callback is not None:
-            raise TypeError(
-                "simulate_pst: progress, resume (state, start_chunk, history) and callback "
-                "need concrete parameters; inside jax.grad/jit/vmap call it without them"
-            )
-        return _simulate_traced(params, setup, layout)
-    validate(params, setup)
-    ensure_x64(setup.dtype)
-    if layout is None:
-        layout = make_layout(params, setup)
+    traced = is_traced(params)
+    if traced or jitted:  # 64-bit mode cannot be switched on inside a trace
+        require_x64(setup.dtype)
+    values = concrete_tree(params) if traced else params
+    notes: list[Problem] = []
+    if values is None:  # inside jax.jit: the setup alone is known
+        raise_if(setup_problems(setup))
     else:
-        check_layout(params, setup, layout)
-    model, state0 = build(params, setup, layout)
+        problems = [] if batch or traced else single_run_problems(values)
+        if not problems:
+            problems = setup_problems(setup)
+            if not problems and resolve is not None and not traced:
+                params = values = resolve(setup, values)
+            problems += param_problems(values, None if problems else setup)
+        if problems:
+            raise InputError(problems, notes=implausible(values))
+        notes = dubious(values, setup, given)
+        lam = float(np.min(np.asarray(theory.elastic_length(values), dtype=float)))
+        notes += [n for n in [resolution_note(setup.dx, lam)] if n is not None]
+    if not (traced or jitted):
+        ensure_x64(setup.dtype)
+    if layout is not None:
+        check_layout(params if traced else values, setup, layout)
+    elif values is None or (traced and from_known):
+        layout = layout_from_known(params, setup, caller)
+    else:
+        layout = _layout(values, setup, max_particles)
+    return Prepared(params, setup, layout, tuple(notes))
+
+
+def _prepared_and_warned(
+    params: PSTParams, setup: PSTSetup | None, layout: Layout | None, **kw: Any
+) -> Prepared:
+    """`prepare` for the API: its notes warned in the API's words (those on implausible
+    values also when the input is invalid: a unit mix-up is the likely cause)."""
+    stacklevel = kw.pop("stacklevel", 3)
+    try:
+        prep = prepare(params, setup, layout, **kw)
+    except InputError as exc:
+        warn_notes(exc.notes, stacklevel=stacklevel)
+        raise
+    warn_notes(prep.notes, stacklevel=stacklevel)
+    return prep
+
+
+def _layout(params: PSTParams, setup: PSTSetup, max_particles: int | None = None) -> Layout:
+    """`damjax.core.model.make_layout` of valid values, and the run's size checked: at
+    most ``max_particles``, and within this machine's memory."""
+    layout = core_model.make_layout(params, setup)
+    if max_particles is not None and layout.n_particles > max_particles:
+        raise InputError(
+            [
+                Problem(
+                    "length",
+                    setup.length,
+                    f"with ${{dx}} = {setup.dx!r} and ${{particles_per_cell}} = "
+                    f"{int(setup.particles_per_cell)} the run has {layout.n_particles:.3g} "
+                    f"particles: must be at most {max_particles:.0e}",
+                )
+            ]
+        )
+    fields = ("length", "dx", "duration", "particles_per_cell")
+    problem = size_problem(
+        layout.n_particles,
+        math.prod(layout.grid_shape),
+        layout.n_chunks,
+        np.dtype(setup.dtype).itemsize,
+        fields + (("width",) if layout.dim == 2 else ()),
+    )
+    raise_if([problem] if problem is not None else [])
+    return layout
+
+
+def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
+    """Grid and step counts of a PST (`Layout`), from concrete parameters (a batch's
+    maxima: the stiffest and most sliding values you will evaluate), for use under
+    `jax.grad` / `jax.jit` / `jax.vmap` (``simulate_pst(..., layout=layout)``). The values
+    are checked (ValueError naming the field), not how they fit the setup: a layout may
+    serve parameters that `simulate_pst` would refuse for this setup alone
+    (steady_length, say)."""
+    expect_types("make_layout", params=(params, PSTParams), setup=(setup, PSTSetup))
+    raise_if(setup_problems(setup) or param_problems(params, None))
+    return _layout(params, setup)
+
+
+def run(
+    prep: Prepared,
+    *,
+    progress: bool = False,
+    state: State | None = None,
+    start_chunk: int = 0,
+    history: tuple[list[np.ndarray], list[Any]] | None = None,
+    callback: Any = None,
+) -> PSTResult:
+    """Integrate a prepared PST of concrete parameters (`prepare`): the model built once,
+    the run chunk by chunk, every diagnostic (`finish`). The arguments are
+    `simulate_pst`'s."""
+    model, state0 = build(prep.params, prep.setup, prep.layout)
     final, tips, snaps, info = integrate(
         model,
         state0 if state is None else state,
-        layout.n_chunks,
-        layout.chunk_steps,
+        prep.layout.n_chunks,
+        prep.layout.chunk_steps,
         snapshot=_snapshot,
         progress=progress,
         callback=callback,
         start_chunk=start_chunk,
         history=history,
     )
-    return finish(params, setup, layout, model, final, tips, snaps, info)
+    return finish(prep.params, prep.setup, prep.layout, model, final, tips, snaps, info)
 
 
 def finish(
@@ -485,7 +648,7 @@ def layout_from_known(params: PSTParams, setup: PSTSetup, caller: str) -> Layout
             f"jax.jit(lambda p: damjax.{caller}(p, setup, layout=layout)). Traced fields "
             "that do not fix it need no layout"
         )
-    return make_layout(known_params(params, unknown), setup)
+    return _layout(known_params(params, unknown), setup)
 
 
 def known_params(params: PSTParams, unknown: list[str]) -> PSTParams:
@@ -505,20 +668,9 @@ def known_params(params: PSTParams, unknown: list[str]) -> PSTParams:
     return dataclasses.replace(params, **values)
 
 
-def _simulate_traced(params: PSTParams, setup: PSTSetup, layout: Layout | None) -> PSTResult:
+def _simulate_traced(prep: Prepared) -> PSTResult:
     """`simulate_pst` on traced parameters: the pure run (`run_pure`), JAX fields."""
-    require_x64(setup.dtype)
-    if layout is None:
-        concrete = concrete_tree(params)
-        if concrete is None:  # inside jax.jit: from the leaves that are not traced
-            validate(params, setup, batch=True)  # the setup (values unknown)
-            layout = layout_from_known(params, setup, "simulate_pst")
-        else:
-            validate(concrete, setup, batch=True)
-            layout = make_layout(concrete, setup)
-    else:
-        validate(params, setup, batch=True)  # through the tracers' values where known
-        check_layout(params, setup, layout)
+    params, setup, layout = prep.params, prep.setup, prep.layout
     model, final, tips = run_pure(params, setup, layout)
     summary = {
         "arrest_position_smooth_m": raise_on_fault(diagnostics_smooth(model, final), final.fault),
@@ -593,35 +745,21 @@ def arrest_position_smooth(
     the failed fraction (0.5 where slab fractures stop the crack; see
     `damjax.diagnostics.smooth_arrest_position`).
     """
-    expect_types(
-        "arrest_position_smooth",
-        params=(params, PSTParams),
-        setup=(setup, PSTSetup),
-        layout=(layout, (Layout, type(None))),
-    )
-    require_x64(setup.dtype)
     check_width(width)
-    if layout is None:
-        if _traced(params):
-            fixing = [f for f in layout_fields(params) if _traced(getattr(params, f))]
-            if fixing:
-                raise TypeError(
-                    f"arrest_position_smooth: {', '.join(fixing)} traced (jax.grad/jit/vmap) "
-                    "and no layout was given; they fix the layout (the grid and the step "
-                    "count): make it from concrete parameters first: layout = "
-                    "damjax.make_layout(params, setup), then "
-                    "jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)"
-                )
-            validate(params, setup, batch=True)
-            layout = layout_from_known(params, setup, "arrest_position_smooth")
-        else:
-            validate(params, setup)
-            layout = make_layout(params, setup)
-    else:
-        # through the tracers' values where JAX holds them (grad, vmap), as without a layout
-        validate(params, setup, batch=_traced(params))
-        check_layout(params, setup, layout)
-    model, final, _ = run_pure(params, setup, layout)
+    if layout is None and is_traced(params):
+        fixing = [f for f in layout_fields(params) if is_traced(getattr(params, f))]
+        if fixing:
+            raise TypeError(
+                f"arrest_position_smooth: {', '.join(fixing)} traced (jax.grad/jit/vmap) "
+                "and no layout was given; they fix the layout (the grid and the step "
+                "count): make it from concrete parameters first: layout = "
+                "damjax.make_layout(params, setup), then "
+                "jax.grad(lambda p: damjax.arrest_position_smooth(p, setup, layout))(params)"
+            )
+    prep = _prepared_and_warned(
+        params, setup, layout, jitted=True, from_known=True, caller="arrest_position_smooth"
+    )
+    model, final, _ = run_pure(prep.params, prep.setup, prep.layout)
     return raise_on_fault(diagnostics_smooth(model, final, width), final.fault)
 
 

@@ -38,7 +38,6 @@ import numpy as np
 
 from damjax import io, scenario
 from damjax.scenario import Scenario
-from damjax.validation import ensure_x64
 
 CHECKPOINT = "checkpoint.npz"
 RESULTS = "results.nc"
@@ -148,24 +147,17 @@ def _version() -> str:
     return __version__
 
 
-def _prepare(scn: Scenario) -> tuple[Any, Any, Any, Any]:
-    """Layout, model and initial state of a scenario (x64 switched on for float64)."""
-
-    from damjax import pst
-
-    ensure_x64(scn.setup.dtype)
+def _template(scn: Scenario) -> tuple[Any, Any]:
+    """The layout and the initial state of a scenario's checked run (the state's
+    structure, to read a saved one back)."""
+    prep = scenario.prepared(scn)
     if scn.type == "slope":
-        from damjax.core.model import make_slope_layout
-        from damjax.scenario.slope_fields import resolve_inputs
-        from damjax.slope import simulation as slope
+        from damjax.slope.simulation import build
 
-        inp = resolve_inputs(scn)
-        layout = make_slope_layout(scn.params, scn.setup, inp.max_slope_deg)
-        model, state = inp.build(scn, layout)
-        return slope, layout, model, state
-    layout = pst.make_layout(scn.params, scn.setup)
-    model, state = pst.build(scn.params, scn.setup, layout)
-    return pst, layout, model, state
+        return prep.layout, build(prep)[1]
+    from damjax.core.model import build
+
+    return prep.layout, build(prep.params, prep.setup, prep.layout)[1]
 
 
 # --------------------------------------------------------------------------- running
@@ -209,15 +201,11 @@ def run(
     io.remove_stale_temporaries(out)
     for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
         (out / name).unlink(missing_ok=True)
-    if scn.type == "slope":
-        n_chunks = _prepare(scn)[1].n_chunks
-        rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
-        return _run_slope(scn, out, rec, progress, None)
-    from damjax.pst import make_layout
-
     t0 = _time.perf_counter()
-    n_chunks = make_layout(scn.params, scn.setup).n_chunks
+    n_chunks = scenario.prepared(scn).layout.n_chunks  # checked once, when it was read
     rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
+    if scn.type == "slope":
+        return _run_slope(scn, out, rec, progress, None)
     t1 = _time.perf_counter()
     result = _simulate(scn, rec, progress)
     phases = {"layout_s": t1 - t0, "simulate_s": _time.perf_counter() - t1}
@@ -305,7 +293,7 @@ def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
             f"{_version()}: the resumed run may differ from an uninterrupted one",
             stacklevel=3,
         )
-    _, layout, _, template = _prepare(scn)
+    layout, template = _template(scn)
     chunk = int(ck["chunk"])
     if not 0 < chunk < layout.n_chunks or int(ck["n_chunks"]) != layout.n_chunks:
         raise ValueError(
@@ -322,14 +310,11 @@ def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
 
 
 def _simulate(scn: Scenario, rec: _Recorder, progress: bool, **resume: Any) -> Any:
-    from damjax.pst import simulate_pst
-    from damjax.validation import DubiousInputWarning
+    from damjax import pst
 
     try:
-        with warnings.catch_warnings():
-            # reading the scenario already warned, naming the file's keys
-            warnings.simplefilter("ignore", DubiousInputWarning)
-            return simulate_pst(scn.params, scn.setup, progress=progress, callback=rec, **resume)
+        # checked (and warned, naming the file's keys) when the scenario was read
+        return pst.run(scenario.prepared(scn), progress=progress, callback=rec, **resume)
     except KeyboardInterrupt:
         if rec.every is not None:
             rec.save()
@@ -528,7 +513,7 @@ def load_final_state(out_dir: str | os.PathLike[str]) -> Any:
         scn = scenario.loads(text, warn=False)
     else:
         scn, _ = load_result(out_dir)
-    _, _, _, template = _prepare(scn)
+    _, template = _template(scn)
     arrays = _with_opening_y(io.read_npz(Path(out_dir) / FINAL_STATE))
     return io.arrays_to_tree(arrays, template, "state")
 

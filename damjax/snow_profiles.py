@@ -51,7 +51,6 @@ import datetime as _dt
 import math
 import os
 import warnings
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -707,20 +706,3 @@ def pst_params(
         values["tau_peak"] = float(wl.shear_strength)
     values.update(overrides)
     return PSTParams(**values)
-
-
-def profile_table(
-    path: str | os.PathLike, weak_layers: Sequence[int] | None = None, **kwargs: Any
-) -> list[dict[str, Any]]:
-    """`Slab.summary` for each of ``weak_layers`` (default: every layer below the top one
-    whose slab has densities) of the profile in ``path``."""
-    prof = read_profile(path, **kwargs)
-    idx = weak_layers if weak_layers is not None else range(1, len(prof.layers))
-    rows = []
-    for i in idx:
-        try:
-            rows.append(prof.slab(i).summary())
-        except ValueError:
-            if weak_layers is not None:
-                raise
-    return rows

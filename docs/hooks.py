@@ -3,7 +3,10 @@ check, so that the reference cannot drift from the code.
 
 - ``api/cli.md``: every subcommand's ``--help`` from `damjax.cli.build_parser`;
 - ``api/scenario-keys.md``: the scenario-file keys with their kind, valid range, default
-  and description, from `damjax.scenario.schema` (and the slope and ensemble tables);
+  and description, from the declarations of `damjax.params` (read through
+  `damjax.scenario.schema`) and the slope and ensemble tables;
+- ``api/params.md``: the tables of every field (unit, valid and plausible range, kind,
+  default, flag, meaning) replace its ``<!-- fields: CLASS -->`` markers;
 - a public function or class (``damjax.__all__`` and the ``__all__`` of the public
   modules, their public methods included) without a docstring stops the build.
 """
@@ -144,24 +147,6 @@ def cli_page() -> str:
 # --------------------------------------------------------------------------- scenario keys
 
 
-def _attributes(cls: type) -> dict[str, str]:
-    """``name: text`` entries of a Google-style ``Attributes:`` section, one line each."""
-    doc = inspect.getdoc(cls) or ""
-    m = re.search(r"^Attributes:\n(.*?)(?:\n\S|\Z)", doc, flags=re.S | re.M)
-    out: dict[str, str] = {}
-    if not m:
-        return out
-    current = None
-    for line in m.group(1).splitlines():
-        hit = re.match(r"^    (\w+): (.*)$", line)
-        if hit:
-            current = hit.group(1)
-            out[current] = hit.group(2).strip()
-        elif current and line.strip():
-            out[current] += " " + line.strip()
-    return out
-
-
 def _cell(text: Any) -> str:
     return str(text).replace("|", "\\|").replace("[", "\\[").replace("\n", " ")
 
@@ -176,20 +161,41 @@ def _default(f: dataclasses.Field) -> str:
     return f"`{v!r}`" if v is not None else "`None`"
 
 
-def _dataclass_table(section: str, cls: type, describe: type | None = None) -> list[str]:
+def _dataclass_table(cls: type) -> list[str]:
+    from damjax.params import specs
     from damjax.scenario import schema
 
-    desc = _attributes(describe or cls)
     rows = ["| key | TOML value | default | meaning |", "|---|---|---|---|"]
     for f in dataclasses.fields(cls):
-        kind = schema._kind_of(cls, f)
-        valid = schema._valid_text(section, f.name, kind).removeprefix("must be ")
-        if section == "setup" and f.name in schema._CHOICES:
-            valid = "one of " + ", ".join(f'`"{c}"`' for c in schema._CHOICES[f.name])
-        rows.append(
-            f"| `{f.name}` | {_cell(valid)} | {_default(f)} | {_cell(desc.get(f.name, ''))} |"
-        )
+        if not f.init:
+            continue
+        valid = schema.valid_words(cls, f.name).removeprefix("must be ")
+        spec = specs(cls)[f.name] if cls is not schema.Output else None
+        if spec is not None and spec.kind == "choice":
+            valid = "one of " + ", ".join(f'`"{c}"`' for c in spec.valid)
+        doc = schema.key_doc(cls, f.name)
+        rows.append(f"| `{f.name}` | {_cell(valid)} | {_default(f)} | {_cell(doc)} |")
     return rows
+
+
+def fields_table(cls: type) -> str:
+    """The declarations of a parameter or setup class (`damjax.params`) as a table."""
+    from damjax.params import specs
+
+    rows = [
+        "| field | unit | valid | plausible | default | `damjax pst` | meaning |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for f in dataclasses.fields(cls):
+        spec = specs(cls)[f.name]
+        valid = spec.valid_text.removesuffix(spec.unit).strip() if spec.valid is not None else ""
+        plausible = f"{spec.plausible} ({spec.plausible_why})" if spec.plausible else ""
+        meaning = spec.doc + (f"; None: {spec.optional}" if spec.optional else "")
+        meaning += f". {spec.notes}" if spec.notes else ""
+        flag = f"`{spec.flag}`" if spec.cli else ""
+        cells = (spec.unit or "-", valid, plausible, _default(f), flag, meaning)
+        rows.append(f"| `{f.name}` | " + " | ".join(_cell(c) for c in cells) + " |")
+    return "\n".join(rows)
 
 
 def _unit_table(table: dict[str, tuple[str, Any, str]]) -> list[str]:
@@ -214,10 +220,10 @@ def scenario_keys_page() -> str:
     out = [
         "# Scenario-file keys",
         "",
-        "Generated at build time from the validation tables of `damjax.scenario` (the "
-        "checks the loader runs), so every key, range and default here is the one the "
-        "code accepts. SI units throughout, angles in degrees. A worked introduction is "
-        "[Scenario files](../guide/scenarios.md).",
+        "Generated at build time from the declarations of `damjax.params` (which the "
+        "loader's checks read) and the tables of `damjax.scenario`, so every key, range "
+        "and default here is the one the code accepts. SI units throughout, angles in "
+        "degrees. A worked introduction is [Scenario files](../guide/scenarios.md).",
         "",
         "## Top level",
         "",
@@ -230,19 +236,19 @@ def scenario_keys_page() -> str:
         "On slopes, " + ", ".join(f"`{k}`" for k in sslope.PST_ONLY_PARAMS) + " have no "
         "meaning (the `[strength]` table sets the weak layer).",
         "",
-        *_dataclass_table("params", PSTParams),
+        *_dataclass_table(PSTParams),
         "",
         '## `[setup]` of `type = "pst"` (`damjax.PSTSetup`)',
         "",
-        *_dataclass_table("setup", PSTSetup),
+        *_dataclass_table(PSTSetup),
         "",
         '## `[setup]` of `type = "slope"` (`damjax.SlopeSetup`)',
         "",
-        *_dataclass_table("setup", SlopeSetup),
+        *_dataclass_table(SlopeSetup),
         "",
         "## `[output]`",
         "",
-        *_dataclass_table("output", schema.Output),
+        *_dataclass_table(schema.Output),
         "",
         '## `[strength]` and `[profile]` of `type = "pst"`',
         "",
@@ -273,7 +279,7 @@ def scenario_keys_page() -> str:
         '## `[snow]` of `type = "slope"`',
         "",
         "`kind` is one of " + ", ".join(f'`"{k}"`' for k in sslope.SNOW_KINDS) + " "
-        "(default `\"uniform\"`; sources and defaults: [the real-path guide]"
+        '(default `"uniform"`; sources and defaults: [the real-path guide]'
         "(../guide/real-path.md#snow-cover-and-weak-layer-on-terrain)); every kind also "
         "takes:",
         "",
@@ -306,6 +312,17 @@ def scenario_keys_page() -> str:
 
 
 GENERATED = {"api/cli.md": cli_page, "api/scenario-keys.md": scenario_keys_page}
+
+
+def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
+    """``<!-- fields: CLASS -->`` (a class of `damjax.params`) -> its `fields_table`."""
+    from damjax import params
+
+    return re.sub(
+        r"<!-- fields: (\w+) -->",
+        lambda m: fields_table(getattr(params, m.group(1))),
+        markdown,
+    )
 
 
 def on_files(files: Any, config: Any) -> Any:

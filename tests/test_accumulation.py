@@ -200,9 +200,9 @@ def test_p2g_is_exact_and_order_free_and_pairs_equal_single_channels():
 
 
 def test_invalid_accumulation_is_a_clear_error():
-    problems = setup_problems(pst_setup("fixedpoint"))
+    problems = [str(p) for p in setup_problems(pst_setup("fixedpoint"))]
     assert problems == ["accumulation = 'fixedpoint': must be in {auto, fixed, float}"]
-    problems = slope_problems(SLOPE, slope_setup("atomic"), 38.0, 600.0)
+    problems = [str(p) for p in slope_problems(SLOPE, slope_setup("atomic"), 38.0, 600.0)]
     assert problems == ["accumulation = 'atomic': must be in {auto, fixed, float}"]
     with pytest.raises(
         ValueError, match=r"accumulation = 'atomic': must be in \{auto, fixed, float\}"

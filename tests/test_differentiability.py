@@ -34,6 +34,7 @@ def test_smooth_arrest_position_tracks_the_event_based_tip(smooth_fn):
     assert r.arrest_position_smooth == pytest.approx(float(f(PARAMS)), abs=1e-4)
 
 
+@pytest.mark.min_versions
 @pytest.mark.parametrize(
     "name",
     ["strength_gradient", "softening", "youngs_modulus", "wl_shear_modulus", "steady_length"],
@@ -119,6 +120,7 @@ def test_elastic_layout_rejects_a_traced_finite_tensile_strength(smooth_fn):
         jax.block_until_ready(g(dataclasses.replace(PARAMS, tensile_strength=4500.0)))
 
 
+@pytest.mark.min_versions
 def test_sweep_equals_a_loop_of_simulate_pst():
     batch = PSTParams(
         steady_length=4.0,
@@ -142,6 +144,7 @@ def test_sweep_equals_a_loop_of_simulate_pst():
             assert r.arrest_position_smooth == pytest.approx(ref.arrest_position_smooth, abs=1e-4)
 
 
+@pytest.mark.min_versions
 def test_sweep_sharded_over_four_host_devices_equals_unsharded():
     code = textwrap.dedent("""
         import os, json

@@ -1,27 +1,24 @@
-"""The package's import graph: no cycles, and the leaves import no other layer.
+"""The package's import graph: no cycles, and the layer order of CONTRIBUTING.md (a
+module imports only from its own layer or below), read from its table.
 
 Every ``import`` / ``from ... import`` of a damjax module counts, at module level or inside
 a function (a deferred import is still a dependency). ``from damjax.x import y`` is an edge
 to ``damjax.x.y`` when that is a module, else to ``damjax.x``; importing a submodule does
-not count as importing its package's ``__init__``. The deprecation shims of the old paths
-(``damjax.config``, ``damjax.scenarios``, ...) forward by name at run time and import no
-damjax module.
+not count as importing its package's ``__init__``.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
-
-import pytest
 
 import damjax
 
 ROOT = Path(damjax.__file__).parent
-
-# layer 0: they import nothing from damjax but each other (and fields reads terrain's maps)
-LEAVES = ("damjax._version", "damjax.constants", "damjax.materials", "damjax.terrain")
-LEAVES += ("damjax.fields", "damjax.theory", "damjax.io")
+CONTRIBUTING = ROOT.parent / "CONTRIBUTING.md"
+# above every layer: the package's __init__ (the public API) and ``python -m damjax``
+TOP = ("damjax", "damjax.__main__")
 
 
 def _module_name(path: Path) -> str:
@@ -106,13 +103,83 @@ def test_no_import_cycles():
     assert cycle is None, "import cycle: " + " -> ".join(cycle or [])
 
 
-@pytest.mark.parametrize("leaf", LEAVES)
-def test_leaves_import_only_leaves(leaf):
+def layers(text: str, modules: set[str]) -> dict[str, tuple[int, str]]:
+    """Module (or package) -> (its layer's rank, 0 the bottom; its name), from the table of
+    CONTRIBUTING.md: each row names its modules in backticks (`params`, `core/`,
+    `core/model.py`); backticked words that name no module (classes, functions) are
+    passed over."""
+    section = text[text.index("## Layers") :]
+    rows = [line for line in section.splitlines()[1:] if line.startswith("|")]
+    out: dict[str, tuple[int, str]] = {}
+    for rank, row in enumerate(rows[2:]):  # past the header and the |---| line
+        layer, column = row.split("|")[1:3]
+        for word in re.findall(r"`([^`]+)`", column):
+            name = "damjax." + word.removesuffix("/").removesuffix(".py").replace("/", ".")
+            if name in modules or any(m.startswith(name + ".") for m in modules):
+                out[name] = (rank, layer.strip())
+    return out
+
+
+def layer_of(module: str, table: dict[str, tuple[int, str]]) -> int | None:
+    """The rank of a module: that of the longest entry of the table it is or lies in."""
+    hits = [n for n in table if module == n or module.startswith(n + ".")]
+    return table[max(hits, key=len)][0] if hits else None
+
+
+def upward(graph: dict[str, set[str]], table: dict[str, tuple[int, str]]) -> list[str]:
+    """Each import of a module from a layer above its own, as a line."""
+    names = dict(table.values())
+    out = []
+    for module in sorted(graph):
+        if module in TOP:
+            continue
+        mine = layer_of(module, table)
+        for target in sorted(graph[module]):
+            theirs = layer_of(target, table)
+            if mine is not None and theirs is not None and theirs > mine:
+                out.append(
+                    f"{module} ({names[mine]}) imports {target} ({names[theirs]}), a layer "
+                    "above its own"
+                )
+    return out
+
+
+def _table() -> dict[str, tuple[int, str]]:
+    return layers(CONTRIBUTING.read_text(encoding="utf-8"), set(_modules()))
+
+
+def test_the_layer_table_is_read_and_places_every_module():
+    table = _table()
+    assert layer_of("damjax.constants", table) == 0
+    assert layer_of("damjax.params", table) == layer_of("damjax.validation", table) == 1
+    assert layer_of("damjax.core.model", table) == 2
+    assert layer_of("damjax.pst", table) == layer_of("damjax.slope.simulation", table) == 4
+    assert layer_of("damjax.scenario.schema", table) == layer_of("damjax.cli", table) == 5
+    unplaced = [m for m in _modules() if m not in TOP and layer_of(m, table) is None]
+    assert not unplaced, f"modules in no layer of CONTRIBUTING.md: {unplaced}"
+
+
+def test_the_layer_check_finds_an_upward_import():
+    table = {
+        "damjax.params": (1, "parameters"),
+        "damjax.core": (2, "core"),
+        "damjax.cli": (5, "workflows"),
+    }
+    graph = {"damjax.core.model": {"damjax.params"}, "damjax.params": {"damjax.cli"}}
+    assert upward(graph, table) == [
+        "damjax.params (parameters) imports damjax.cli (workflows), a layer above its own"
+    ]
+
+
+def test_no_module_imports_from_a_layer_above_its_own():
+    lines = upward(_graph(), _table())
+    assert not lines, "\n".join(lines)
+
+
+def test_the_core_imports_nothing_from_validation():
+    """Values are checked at the edge (`damjax.pst.prepare`, ...); the core reads the
+    declarations of `damjax.params` for its run-time guards, never the checks."""
     graph = _graph()
-    inside = [m for m in graph if m == leaf or m.startswith(leaf + ".")]
-    assert inside
-    for module in inside:
-        for target in graph[module]:
-            assert any(target == x or target.startswith(x + ".") for x in LEAVES), (
-                f"{module} imports {target}, which is not a leaf"
-            )
+    core = [m for m in graph if m.startswith("damjax.core")]
+    assert core
+    assert not [(m, t) for m in core for t in graph[m] if t == "damjax.validation"]

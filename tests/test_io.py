@@ -114,6 +114,7 @@ def _fake() -> FakeResult:
     )
 
 
+@pytest.mark.min_versions
 @pytest.mark.parametrize("engine", ["scipy", "h5netcdf"])
 def test_results_dataset_is_cf_style_and_round_trips(tmp_path, engine):
     if engine == "h5netcdf" and io.netcdf_engine() != "h5netcdf":
@@ -160,6 +161,7 @@ def test_plot_leaves_a_chosen_matplotlib_backend_alone():
     assert out.stdout.strip().lower() == "agg", out.stderr
 
 
+@pytest.mark.min_versions
 def test_a_python_result_writes_the_results_file_damjax_run_writes(tmp_path):
     import jax
 

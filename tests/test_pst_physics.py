@@ -55,11 +55,13 @@ def test_elastic_brittle_crack_arrests_only_above_the_runaway_gradient(factor, a
         PSTSetup(length=40.0, dx=0.05, duration=2.5),
     )
     assert r.arrested is arrests, r.summary["final_tip_m"]
+    assert r.summary["crack_front"] == ("arrested" if arrests else "reached_end")
     assert r.summary["runaway_gradient_pa_per_m"] == pytest.approx(theta / factor)
     if not arrests:
         assert r.summary["final_tip_m"] > 39.0
 
 
+@pytest.mark.min_versions
 def test_self_propagating_crack_reaches_strip_wave_speed():
     r = simulate_pst(
         PSTParams(strength_gradient=0.0),
@@ -243,6 +245,47 @@ def test_no_arrest_without_a_self_propagating_crack():
     )
     assert not r.summary["arrested"] and r.summary["arrest_position_m"] is None
     assert r.summary["critical_cut_length_m"] is None
+    assert r.summary["crack_front"] == "sawn_only"
+
+
+@pytest.mark.min_versions
+@pytest.mark.parametrize("theta", [150.0, 250.0, 400.0])
+def test_critical_cut_length_beyond_the_steady_length(theta):
+    """L_ss 0.3 m, below the uniform layer's a_c (0.98 m): the cut meets the rising
+    strength beyond L_ss, and above theta_run (303 Pa/m) it never does. Measured
+    2026-11-27 (8 m, dx 0.05 m, 1 s): cuts of 1.97 / 5.18 m against 1.65 / 4.19 m from
+    the bar model (the uniform one says 0.98 m for both), and at 400 Pa/m the saw cut the
+    whole PST with no crack ahead of it."""
+    p = PSTParams(steady_length=0.3, strength_gradient=theta)
+    a_uniform = float(theory.critical_cut_length(p))
+    assert a_uniform > 0.3
+    a_th = float(theory.pst_critical_cut_length(p))
+    r = simulate_pst(p, PSTSetup(length=8.0, dx=0.05, duration=1.0, chunk_steps=200))
+    s = r.summary
+    if theta < float(theory.runaway_gradient(p)):
+        assert s["critical_cut_length_theory_m"] == pytest.approx(a_th)
+        # the same dynamic overshoot as on the uniform layer (1.14 there), not a factor
+        assert 1.0 < s["critical_cut_length_m"] / a_th < 1.4
+        assert s["critical_cut_length_m"] > 1.6 * a_uniform
+        assert s["crack_front"] == "reached_end" and not s["arrested"]
+    else:
+        assert math.isinf(a_th)
+        assert s["critical_cut_length_theory_m"] is None
+        assert s["crack_front"] == "sawn_only" and s["critical_cut_length_m"] is None
+        assert not s["arrested"]
+
+
+def test_pst_critical_cut_length_is_the_uniform_one_within_the_steady_length():
+    p = PSTParams()  # a_c 0.98 m < L_ss 20 m
+    assert float(theory.pst_critical_cut_length(p)) == float(theory.critical_cut_length(p))
+    # continuous where a_c crosses L_ss (below theta_run; above it no cut beyond L_ss does)
+    a = float(theory.critical_cut_length(p))
+    below, above = (
+        float(theory.pst_critical_cut_length(PSTParams(steady_length=lss, strength_gradient=150.0)))
+        for lss in (a + 1e-9, a - 1e-9)
+    )
+    assert below == pytest.approx(above, abs=1e-6)
+    assert math.isinf(float(theory.pst_critical_cut_length(PSTParams(steady_length=a - 1e-3))))
 
 
 def test_a_strength_profile_has_no_steady_length_in_the_summary():

@@ -15,9 +15,9 @@ import pytest
 gpd = pytest.importorskip("geopandas")
 shapely = pytest.importorskip("shapely")
 
-from benchmarks import real_path as rp  # noqa: E402
 from damjax import release_area, scenario  # noqa: E402
 from damjax.scenario.slope_fields import cell_centres, release_area_of, resolve_fields  # noqa: E402
+from verification import real_path as rp  # noqa: E402
 
 KOT = rp.DATA / "avaKot"
 

@@ -85,6 +85,7 @@ def cli(*args: str, env: dict) -> subprocess.CompletedProcess:
 # --------------------------------------------------------------------------- outputs
 
 
+@pytest.mark.min_versions
 def test_run_writes_outputs_and_show_replots(tmp_path, scn_file, capsys):
     text = RESTART_TOML.replace("duration = 3.0", "duration = 0.5").replace(
         "plot = false", "plot = true"
@@ -151,6 +152,7 @@ def test_run_by_shipped_name_and_bad_arguments(tmp_path, capsys):
 # --------------------------------------------------------------------------- restart
 
 
+@pytest.mark.min_versions
 def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
     scn = scenario.load(scn_file)
     ref = runner.run(scn, tmp_path / "ref")

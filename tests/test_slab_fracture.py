@@ -94,8 +94,11 @@ def test_fracture_marker_is_an_opening_the_same_on_every_grid():
     # a fracture is a band opening of max(1 mm, ln(100) w_c) [m] for both slab models and
     # every dx: with G_f = 3 J/m^2 the band keeps 1 % of its strength beyond 1 mm
     from damjax import pst
-    from damjax.core.state import FRACTURE_OPENING
-    from damjax.core.step import crack_band_opening, fracture_opening
+    from damjax.materials.slab_fracture import (
+        FRACTURE_OPENING,
+        crack_band_opening,
+        fracture_opening,
+    )
 
     out = {}
     for dx in (0.04, 0.02):

@@ -14,8 +14,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from damjax.core.step import band_opening
 from damjax.materials import slab_fracture
+from damjax.materials.slab_fracture import band_opening
 
 
 def _x(dx: float, ppc: int = 2, length: float = 20.0) -> np.ndarray:
@@ -233,7 +233,7 @@ def test_2d_band_opening_is_the_jump_at_any_orientation(angle_deg):
     # the lattice's sums are its integrals): split as n_x^2 and n_y^2 between the x and y
     # parts, every particle of the band sees w (the smaller of the x and y window sums
     # of the whole strain would see w / max(n_x, n_y) of it)
-    from damjax.core.step import band_opening
+    from damjax.materials.slab_fracture import band_opening
 
     dx, ppc, w = 0.04, 2, 2e-3
     s = dx / ppc

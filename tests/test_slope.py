@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from damjax import PSTParams, PSTSetup, SlopeSetup, scenario, simulate_slope, terrain
+from damjax import PSTParams, PSTSetup, SlopeSetup, plot, scenario, simulate_slope, terrain
 from damjax.cli import main
 from damjax.materials import weak_layer
 from damjax.pst import simulate_pst
@@ -33,6 +33,9 @@ from damjax.slope.generic import (
 
 SLOPE_NAMES = ["slope-quick", "slope-generic-50x60", "slope-generic-50x100"]
 JSON_KEYS = (
+    "upslope_front",
+    "crossslope_front",
+    "upslope_extent_m",
     "upslope_arrest_distance_m",
     "upslope_crack_speed_over_cs",
     "crossslope_crack_speed_over_cs",
@@ -57,6 +60,7 @@ def quiet_parse(doc: dict, **kw) -> scenario.Scenario:
 # --------------------------------------------------------------------------- physics
 
 
+@pytest.mark.min_versions
 def test_plane_strip_reproduces_the_1d_pst_arrest():
     """A 12 m x 0.6 m strip on a uniform plane, sawn from its lower edge, arrests where the
     1D PST (free lateral condition) does, with the same critical cut length."""
@@ -79,12 +83,117 @@ def test_plane_strip_reproduces_the_1d_pst_arrest():
     tau = np.asarray(weak_layer.strength_profile(x, 1000.0, 4.0, 2000.0))
     r2 = simulate_slope(p, setup, tau_peak=np.repeat(tau[:, None], 12, axis=1))
     assert r1.summary["arrested"] and r2.summary["arrested_before_top"]
+    assert r1.summary["crack_front"] == "arrested" and r2.summary["upslope_front"] == "arrested"
+    assert r2.summary["upslope_arrest_distance_m"] == r2.summary["upslope_extent_m"]
     l1d = r1.summary["arrest_position_m"]
     assert 4.0 < l1d < 11.0
     assert r2.summary["upslope_arrest_distance_m"] == pytest.approx(l1d, abs=2 * setup.dx)
     assert r2.summary["critical_cut_radius_m"] == pytest.approx(
         r1.summary["critical_cut_length_m"], abs=setup.dx
     )
+
+
+def test_a_crossslope_arrest_is_summarised_as_one():
+    """A plane whose strength rises steeply across from 1.5 m beside the start: the crack
+    runs to the top and lower edges and to the near side edge, and stops across on the
+    strong side, more than 2 m inside the far edge. Up-slope it reached the edge (no
+    arrest distance), across it arrested (the distance is the extent on the band through
+    the start)."""
+    setup = SlopeSetup(
+        length=6.0,
+        width=8.0,
+        dx=0.1,
+        duration=1.0,
+        start=(3.0, 1.5),
+        particles_per_cell=1,
+        chunk_steps=200,
+    )
+    y = (np.arange(80) + 0.5) * 0.1
+    tau = np.repeat((1000.0 + 2000.0 * np.maximum(y - 3.0, 0.0))[None, :], 60, axis=0)
+    s = simulate_slope(PSTParams(), setup, tau_peak=tau).summary
+    assert s["upslope_front"] == "reached_edge" and s["upslope_arrest_distance_m"] is None
+    assert s["crossslope_front"] == "arrested"
+    assert s["crossslope_arrest_distance_m"] == s["crossslope_extent_m"]
+    # stopped where the strength has risen, short of the far edge (6.5 m away); measured
+    # 3.55 m on 2026-11-27
+    assert 1.5 < s["crossslope_arrest_distance_m"] < 4.5
+    assert s["crossslope_front_end_speed_over_cs"] is None
+    assert "cross-slope arrest" in plot.slope_outcome(s)
+    assert "up-slope: reached the top edge" in plot.slope_outcome(s)
+
+
+@pytest.mark.parametrize(
+    ("arrivals", "state"),
+    [
+        # the outline stopped 1 s before the end, 5 m inside the edge
+        ({3.0: 0.5, 4.0: 1.0}, "arrested"),
+        # it advanced 0.5 m (5 cells) in the last 0.3 s
+        ({3.0: 0.5, 4.0: 1.0, 4.5: 1.9}, "moving"),
+        # one cell in the last 0.3 s is within a PST's tolerance
+        ({3.0: 0.5, 4.0: 1.0, 4.1: 1.95}, "arrested"),
+        # within 2 m of the edge
+        ({3.0: 0.5, 8.5: 1.0}, "reached_edge"),
+    ],
+)
+def test_front_state_of_an_outline(arrivals, state):
+    from damjax.slope.simulation import _front_state
+
+    dist = np.array(list(arrivals), float)
+    t = np.array(list(arrivals.values()), float)
+    got, speed = _front_state(np.append(dist, 1.0), np.append(t, np.inf), 10.0, 2.0, 0.1)
+    assert got == state
+    if state == "moving":
+        assert speed == pytest.approx(0.5 / 0.3)
+    else:
+        assert speed is None
+
+
+def test_outcome_line_says_what_happened():
+    moving = {
+        "upslope_front": "reached_edge",
+        "crossslope_front": "moving",
+        "crossslope_extent_m": 37.8,
+        "crossslope_front_end_speed_over_cs": 0.0255,
+    }
+    line = plot.slope_outcome(moving)
+    assert "reached the top edge" in line and "still moving at the end at 0.03" in line
+    assert "37.8 m" in line
+    sawn = {"upslope_front": "sawn_only", "crossslope_front": "sawn_only"}
+    assert "never ran ahead of the saw" in plot.slope_outcome(sawn)
+    old = {"arrested_before_top": True, "upslope_arrest_distance_m": 41.8}
+    assert plot.slope_outcome(old) == "up-slope arrest 41.8 m from the start"
+
+
+def test_crack_speed_map_has_no_speed_where_cells_failed_together():
+    """A front at 50 m/s across a strip whose last metre fails at once: the fit reads a
+    speed far above the slab's wave speed there; the map gives none and flags the cells."""
+    from types import SimpleNamespace
+
+    from damjax import theory
+
+    params = PSTParams()
+    limit = slope_results.front_speed_limit(params)
+    assert limit == pytest.approx(float(theory.plane_stress_wave_speed(params)))
+    assert limit / float(theory.shear_wave_speed(params)) == pytest.approx(1.69, abs=0.01)
+    dx = 0.1
+    x = (np.arange(100) + 0.5) * dx
+    t = x / 50.0
+    t[x > 9.0] = 9.0 / 50.0  # the last metre at once
+    result = SimpleNamespace(
+        x=x,
+        y=(np.arange(20) + 0.5) * dx,
+        arrival_time=np.repeat(t[:, None], 20, 1),
+        params=params,
+    )
+    v = slope_results.crack_speed_map(result)
+    flags = slope_results.simultaneous_failure_map(result)
+    assert np.nanmax(v) <= limit
+    inner = x < 8.0
+    np.testing.assert_allclose(v[inner], 50.0, rtol=1e-6)
+    assert flags[x > 9.5].all() and not flags[inner].any()
+    assert np.isnan(v[flags]).all()
+    # no cell has both a speed and the flag, and every failed cell with a fit has one
+    assert not (np.isfinite(v) & flags).any()
 
 
 # --------------------------------------------------------------------------- scenarios
@@ -140,6 +249,7 @@ def test_acceptance_scenario_is_the_issue_5_case():
     assert weak_spot(FIG12B, tau_b) == pytest.approx(start_b)
 
 
+@pytest.mark.min_versions
 def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
     out = tmp_path / "q"
     assert main(["run", "slope-quick", "--out", str(out), "--json", "--quiet"]) == 0
@@ -148,7 +258,21 @@ def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
         assert key in summary, key
     assert summary["n_particles"] == 120 * 60 and summary["n_steps"] > 0
     assert summary["fault"] is None
-    assert summary["release_area_m2"] > 10.0 and summary["upslope_arrest_distance_m"] > 2.0
+    assert summary["release_area_m2"] > 10.0 and summary["upslope_extent_m"] > 2.0
+    # the whole 12 m x 6 m area releases: the fronts reached the edges, nothing arrested,
+    # and no arrest distance or position is reported
+    assert summary["release_area_m2"] == pytest.approx(72.0, rel=1e-6)
+    assert summary["upslope_front"] == "reached_edge"
+    assert summary["crossslope_front"] == "reached_edge"
+    assert summary["arrested_before_top"] is False
+    for key in (
+        "upslope_arrest_distance_m",
+        "upslope_arrest_position_m",
+        "crossslope_arrest_distance_m",
+        "upslope_front_end_speed_over_cs",
+        "crossslope_front_end_speed_over_cs",
+    ):
+        assert summary[key] is None, key
     for name in ("results.nc", "summary.json", "slope.png", "release.gif"):
         assert (out / name).is_file(), name
     from damjax import io
@@ -402,7 +526,7 @@ def test_slope_profile_is_validated_and_differentiable():
     from damjax.validation import param_problems
 
     for bad in ([35.0], [35.0, 95.0], [35.0, math.nan]):
-        lines = param_problems(PSTParams(slope_profile=bad))
+        lines = [str(p) for p in param_problems(PSTParams(slope_profile=bad))]
         assert len(lines) == 1 and lines[0].startswith("slope_profile"), lines
     doc = raw("quick")
     doc["params"]["slope_profile"] = [35.0, 0.0]
@@ -669,7 +793,7 @@ def test_generic_slope_case_checks_its_fields_when_built(kw, needle):
 
 
 def test_slope_acceptance_flags_are_checked_before_any_run(capsys):
-    from benchmarks import slope_acceptance
+    from verification import slope_acceptance
 
     for argv, needle in (
         (["--roll-length", "45"], "--toe-length = 10 m + --roll-length = 45 m: must be at most"),
@@ -698,14 +822,15 @@ def test_crack_speed_map_is_exact_for_plane_and_radial_fronts_up_to_the_edges():
     angle = np.radians(30.0)
     t = (X * np.cos(angle) + Y * np.sin(angle)) / 90.0
     t[X > 15.0] = np.inf  # intact beyond the front
-    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y))
+    p = PSTParams()  # c_p = 132 m/s: both fronts are slower
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=t, x=x, y=y, params=p))
     released = np.isfinite(t)
     assert np.all(np.isnan(v[~released]))
     np.testing.assert_allclose(v[released], 90.0, rtol=1e-6)
     # a radial front from a corner: the speed is exact wherever the front is locally
     # straight over the 1 m window (away from the start itself)
     r = np.hypot(X, Y)
-    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y))
+    v = slope_results.crack_speed_map(SimpleNamespace(arrival_time=r / 60.0, x=x, y=y, params=p))
     far = r > 5.0
     np.testing.assert_allclose(v[far], 60.0, rtol=0.01)
 

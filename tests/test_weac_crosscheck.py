@@ -1,4 +1,4 @@
-"""The weac cross-check (benchmarks/weac_crosscheck.py): the two models get the same slab,
+"""The weac cross-check (verification/weac_crosscheck.py): the two models get the same slab,
 weak layer and load, and the matched toughness is weac's tip-stress criterion."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import pytest
 pytest.importorskip("weac")
 pytest.importorskip("scipy")
 
-from benchmarks import weac_crosscheck as wc  # noqa: E402
 from damjax import theory  # noqa: E402
+from verification import weac_crosscheck as wc  # noqa: E402
 
 
 @pytest.mark.parametrize("changes", [{}, {"thickness": 0.3, "youngs_modulus": 16.0e6}])

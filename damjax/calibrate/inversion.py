@@ -22,7 +22,25 @@ from damjax.validation import check_width
 
 @dataclasses.dataclass
 class Inversion:
-    """Result of `invert`."""
+    """Result of `invert`.
+
+    Attributes:
+        estimates: the fitted fields at the best iterate (lowest loss), by name.
+        loss: the misfit sum ((L_smooth - L_obs) / noise_std)^2 [-] at the estimates:
+            ``history[best_step]``, the smallest entry of ``history``.
+        history: the misfit at every iterate, the start included: ``steps + 1`` values
+            (``history[0]`` at ``params0``, ``history[k]`` after k Adam updates).
+        best_step: the index in ``history`` of the estimates.
+        hessian: Gauss-Newton Hessian of the misfit in log-parameter space at the
+            estimates.
+        condition_number: of ``hessian`` (inf where singular: the fields are not
+            identifiable from these observations).
+        std_errors: one-sigma errors of the estimates from ``hessian`` and the assumed
+            noise, by name, in the fields' units. A local, linearised measure: it holds
+            at a minimum (``history`` flat at its end); after a few steps, or along a
+            valley of the misfit (a large ``condition_number``), it can exceed the
+            estimate itself.
+    """
 
     estimates: dict[str, float]
     loss: float
@@ -30,6 +48,7 @@ class Inversion:
     hessian: np.ndarray  # Gauss-Newton Hessian of the misfit in log-parameter space
     condition_number: float
     std_errors: dict[str, float]  # from the Hessian and the assumed noise
+    best_step: int = 0
 
 
 def _positive_scalar(value: Any) -> bool:
@@ -63,8 +82,9 @@ def invert(
     ``smooth_width``: None (default) differentiates the continuous crack length; a
     damage-ramp width (0.5) where slab fractures stop the crack
     (`damjax.diagnostics.smooth_arrest_position`).
-    The estimates are the best iterate (lowest loss) of the Adam run, not the last:
-    Adam's iterates oscillate around the minimum.
+    The estimates are the best iterate (lowest loss) of the Adam run, the last one
+    included, not the last: Adam's iterates oscillate around the minimum. ``steps`` Adam
+    updates evaluate ``steps + 1`` iterates (`Inversion.history`).
     """
     known = {f.name for f in dataclasses.fields(params0)}
     problems = [f"fields: {f!r} is not a PSTParams field" for f in fields if f not in known]
@@ -133,16 +153,19 @@ def invert(
         from tqdm.auto import tqdm
 
         it = tqdm(it, desc="invert")
-    best_x, best = x, math.inf
-    for _ in it:
+    best_x, best, best_step = x, math.inf, 0
+    for k in it:
         val, g = vg(x)
         hist.append(float(val))
         if float(val) < best:  # Adam's iterates oscillate: keep the best one seen
-            best_x, best = x, float(val)
+            best_x, best, best_step = x, float(val), k
         upd, st = opt.update(g, st)
         x = optax.apply_updates(x, upd)
-    if not float(loss(x)) < best:
-        x = best_x
+    # the iterate after the last update is one of them too
+    hist.append(float(loss(x)))
+    if hist[-1] < best:
+        best_x, best, best_step = x, hist[-1], len(hist) - 1
+    x = best_x
     J = np.asarray(jax.jit(jax.jacfwd(predict))(x)) / noise_std  # (n_obs, n_fields)
     H = 2.0 * J.T @ J
     eig = np.linalg.eigvalsh(H)
@@ -153,4 +176,4 @@ def invert(
         se = {f: est[f] * math.sqrt(max(cov[i, i], 0.0)) for i, f in enumerate(fields)}
     else:
         se = {f: math.inf for f in fields}
-    return Inversion(est, float(loss(x)), hist, H, cond, se)
+    return Inversion(est, best, hist, H, cond, se, best_step)

@@ -39,13 +39,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax.core.loop import cpu_compiler_options, integrate_pure
-from damjax.core.model import SlopeLayout, build_slope, make_slope_layout
+from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
 from damjax.materials import mcc, weak_layer
 from damjax.params import PSTParams, SlopeSetup
-from damjax.slope.simulation import SlopeResult
+from damjax.slope.simulation import SlopeResult, prepare
 from damjax.slope.simulation import particle_damage as slope_particle_damage
-from damjax.validation import ensure_x64, slope_problems
 
 CALIBRATED = ("tensile_strength", "softening")
 # relative width w of the damage ramp: wider than the 1D surrogate's 0.1, because after an
@@ -97,11 +96,9 @@ def slope_problem(
     """
     if not math.isfinite(float(params.tensile_strength)):
         raise ValueError("slope_problem: tensile_strength must be finite (elasto-plastic slab)")
-    problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
-    if problems:
-        raise ValueError("\n".join(problems))
-    ensure_x64(setup.dtype)
-    layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
+    layout = prepare(
+        params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg
+    ).layout
     model, state, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     return SlopeProblem(params, setup, layout, model, state, xp, yp)
 

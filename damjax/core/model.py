@@ -7,8 +7,11 @@
 - Slope (`damjax.slope`): `make_slope_layout`, `build_slope` (the same `Model` on a 2D
   release area, with slope, strength and fall-line fields at the cell centres).
 
-Inputs are validated before they get here (`damjax.validation`, at the edge); the model
-is built once per run and then only the core's step and loop act on it.
+Inputs are validated before they get here (`damjax.pst.prepare`,
+`damjax.slope.simulation.prepare`, at the edge); the model is built once per run and then
+only the core's step and loop act on it. The one check made here is at run time, on
+traced values (inside `jax.jit` nothing is known before): each against its valid range
+as `damjax.params` declares it.
 """
 
 from __future__ import annotations
@@ -18,25 +21,24 @@ import math
 from typing import Any
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
+from damjax._tracing import is_traced
 from damjax.constants import G_ACC
 from damjax.core import transfer
 from damjax.core.state import Model, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
-from damjax.params import PSTParams, PSTSetup, SlopeSetup
-from damjax.validation import (
-    check_problem_size,
-    expect_types,
+from damjax.params import (
+    FALL_DEG_SPEC,
+    STABILITY_SPEC,
+    WL_FRICTION_SPEC,
+    PSTParams,
+    PSTSetup,
+    SlopeSetup,
     is_plastic,
-    param_problems,
-    setup_problems,
-    traced_map_checks,
-    traced_param_checks,
-    validate,
+    specs,
 )
 
 SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
@@ -100,13 +102,8 @@ def _max_cohesive_slip(params: PSTParams) -> float:
 
 def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
     """Grid and step counts; parameters enter only through concrete maxima (a batch's).
-    Invalid values are a ValueError naming the field (as `damjax.simulate_pst` checks)."""
-    expect_types("make_layout", params=(params, PSTParams), setup=(setup, PSTSetup))
-    # the values (ranges, NaN), not how they fit the setup: a layout may serve parameters
-    # that `simulate_pst` would refuse for this setup alone (steady_length, say)
-    problems = setup_problems(setup) or param_problems(params, None)
-    if problems:
-        raise ValueError("\n".join(problems))
+    The input is valid (checked at the edge: `damjax.make_layout`, `damjax.pst.prepare`),
+    and the run's size is checked there too (`Layout.n_particles`, ``grid_shape``)."""
     dx, ppc = setup.dx, int(setup.particles_per_cell)
     n_cells = max(1, int(round(setup.length / dx)))
     slide = 0.5 * _slide_accel(params) * setup.duration**2 + _max_cohesive_slip(params)
@@ -119,9 +116,7 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
     chunk = min(int(setup.chunk_steps), n_needed)
     n_chunks = max(1, int(math.ceil(n_needed / chunk)))
     plastic = is_plastic(params) is not False
-    itemsize = np.dtype(setup.dtype).itemsize
     if setup.dim == 1:
-        check_problem_size(n_cells * ppc, nx, n_chunks, itemsize, _SIZE_FIELDS)
         return Layout(1, (nx,), (False,), pad, n_cells * ppc, n_chunks, chunk, plastic, setup)
     if setup.lateral == "constrained":
         ny = 3
@@ -130,16 +125,41 @@ def make_layout(params: PSTParams, setup: PSTSetup) -> Layout:
         n_y = max(1, int(round(setup.width / dx)))
         shape, periodic = (nx, n_y + 8), (False, False)
     n = n_cells * ppc * n_y * ppc
-    check_problem_size(n, shape[0] * shape[1], n_chunks, itemsize, _SIZE_FIELDS + ", width")
     return Layout(2, shape, periodic, pad, n, n_chunks, chunk, plastic, setup)
 
 
-_SIZE_FIELDS = "length (--length), dx (--dx), duration (--duration), particles_per_cell"
+def traced_checks(
+    values: dict[str, Any], table: dict[str, Any], every: str = ""
+) -> list[tuple[Any, str]]:
+    """(bad, message) per value that holds a JAX tracer: ``bad`` a JAX bool, true when any
+    of its values is outside the valid range its declaration (``table``, `damjax.params`)
+    gives (NaN included). Inside `jax.jit` no value is known when the run is traced, so
+    these become runtime errors (`equinox.error_if`) instead of a silent NaN or a
+    plausible number; concrete values are checked before tracing, at the edge.
+    ``every``: "value" (a profile) or "cell" (a slope's map, named bare)."""
+    out = []
+    for name, value in values.items():
+        if value is None or not is_traced(value):
+            continue
+        spec = table[name]
+        bad = ~jnp.all(spec.valid.holds(jnp.asarray(value)))
+        valid = spec.valid_text + (f" (every {every})" if every else "")
+        message = (
+            f"{spec.name if every == 'cell' else spec.label}: a value outside {valid}, found "
+            "at run time (under jax.jit the values are not known when the run is traced)"
+        )
+        out.append((bad, message))
+    return out
 
 
-def _traced(params: PSTParams) -> bool:
-    """Whether any parameter is a JAX tracer (inside jax.grad/jit/vmap)."""
-    return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(params))
+def _param_checks(params: PSTParams) -> list[tuple[Any, str]]:
+    """`traced_checks` of every field of the parameters."""
+    table = specs(PSTParams)
+    checks = []
+    for name in table:
+        every = "value" if table[name].kind == "profile" else ""
+        checks += traced_checks({name: getattr(params, name)}, table, every)
+    return checks
 
 
 def _checked(dt: Any, checks: list[tuple[Any, str]]) -> Any:
@@ -155,9 +175,9 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
     traced parameters that the layout does not fit: a finite tensile strength on an
     elastic layout, or a slab so stiff that dt breaks the Courant limit (the run would
     blow up into NaN), and traced values outside their valid ranges
-    (`damjax.validation.traced_param_checks`: NaN, a negative strength gradient, ...).
-    Concrete parameters are checked before tracing (`check_layout`, `validate`)."""
-    dt = _checked(dt, traced_param_checks(params))
+    (`traced_checks`: NaN, a negative strength gradient, ...). Concrete parameters are
+    checked before tracing (at the edge, and `check_layout`)."""
+    dt = _checked(dt, _param_checks(params))
     if elastic_guard is not None:
         dt = eqx.error_if(
             dt,
@@ -165,7 +185,7 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
             "tensile_strength is finite but the layout was made for an elastic slab "
             "(tensile_strength = inf): make the layout from these parameters",
         )
-    if _traced(params):
+    if is_traced(params):
         lateral = "constrained" if setup.dim == 2 else setup.lateral
         c = theory.longitudinal_wave_speed(params, lateral)
         dt = eqx.error_if(
@@ -361,7 +381,8 @@ def _slab_fracture(
 
 def check_layout(params: PSTParams, setup: PSTSetup, layout: Layout) -> None:
     """ValueError unless `layout` fits `setup` and (when concrete) `params`: made for this
-    setup, stable time step, same slab law. Concrete parameters are validated too."""
+    setup, stable time step, same slab law (the values themselves are valid: checked at
+    the edge)."""
     if layout.setup is not None and layout.setup != setup:
         diff = [
             f"{f.name} {getattr(layout.setup, f.name)!r} vs {getattr(setup, f.name)!r}"
@@ -372,9 +393,8 @@ def check_layout(params: PSTParams, setup: PSTSetup, layout: Layout) -> None:
             "layout: made for another setup (" + ", ".join(diff) + "); make it with "
             "damjax.make_layout(params, setup) for the setup you run"
         )
-    if _traced(params):
+    if is_traced(params):
         return  # traced values: checked where the layout was made from concrete ones
-    validate(params, setup)
     dt = setup.duration / layout.n_steps
     dt_max = time_step(params, setup)
     if dt > dt_max * (1 + 1e-9):
@@ -411,8 +431,9 @@ class SlopeLayout:
 
 
 def make_slope_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float) -> SlopeLayout:
-    """Grid and step counts of a slope run (concrete parameters; the steepest angle [deg]
-    of the terrain sets how far a released slab may slide)."""
+    """Grid and step counts of a slope run (concrete, valid parameters; the steepest angle
+    [deg] of the terrain sets how far a released slab may slide). The run's size is
+    checked at the edge (`damjax.slope.simulation.prepare`)."""
     dx = setup.dx
     nx, ny = int(round(setup.length / dx)), int(round(setup.width / dx))
     psi, phi = math.radians(max_slope_deg), math.radians(float(params.friction_deg))
@@ -426,14 +447,6 @@ def make_slope_layout(params: PSTParams, setup: SlopeSetup, max_slope_deg: float
     chunk = min(int(setup.chunk_steps), n_needed)  # a longer chunk would shrink dt
     n_chunks = max(1, int(math.ceil(n_needed / chunk)))
     shape = (pad_x + nx + pad_y, 2 * pad_y + ny)
-    ppc = int(setup.particles_per_cell)
-    check_problem_size(
-        nx * ny * ppc * ppc,
-        shape[0] * shape[1],
-        n_chunks,
-        np.dtype(setup.dtype).itemsize,
-        "length, width, dx, duration and particles_per_cell of the slope",
-    )
     plastic = is_plastic(params) is not False
     return SlopeLayout(shape, (pad_x, pad_y), (nx, ny), n_chunks, chunk, plastic)
 
@@ -530,7 +543,7 @@ def slope_particle_fields(
 def uniform_value(field: Any) -> Any:
     """A concrete map whose cells all hold one value as that value (a float: the scalar
     model, bitwise that of a scalar input); anything else as it is."""
-    if field is None or isinstance(field, jax.core.Tracer) or np.ndim(field) == 0:
+    if field is None or is_traced(field) or np.ndim(field) == 0:
         return field
     a = np.asarray(field)
     flat = a.ravel()
@@ -562,6 +575,9 @@ def build_slope(
     None: ``tau_peak`` [Pa]) and ``wl_friction`` (a friction coefficient added to the
     strength: tau_p + mu rho g h0 cos psi). ``outflow``: a particle that slides over the
     grid's edge leaves the run (`State.outflow`) instead of stopping it with a fault.
+    The inputs are valid (checked at the edge, `damjax.slope.simulation.prepare`: a cover
+    with snow on some cell, and none with holes under a "crack_band" slab, whose band
+    openings sum over the particles' lattice).
     """
     dtype = jnp.dtype(setup.dtype)
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
@@ -570,18 +586,10 @@ def build_slope(
     thickness = uniform_value(thickness)  # a uniform map is the scalar model
     cell0, frac0, xp, yp = slope_particles(setup, layout.pad, cover)
     n = xp.size
-    if n == 0:
-        raise ValueError("cover: no snow-covered cell, the slope has no slab to run")
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
     plastic = layout.plastic if plastic is None else plastic
-    if plastic and setup.slab_fracture == "crack_band" and n != nx * ny * ppc * ppc:
-        raise ValueError(
-            'slab_fracture = "crack_band": needs a particle in every cell (its band openings '
-            "sum over the particles' lattice), and the snow cover leaves cells empty; use "
-            '"paper"'
-        )
     tensile, g_f, slab_kw = _slab_fracture(
         params,
         setup,
@@ -606,8 +614,12 @@ def build_slope(
     )
     psi, fall, tau_p, h0 = pf["psi"], pf["fall"], pf["tau_peak"], pf["thickness"]
     # traced values outside their ranges stop the run
-    maps = traced_map_checks(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
-    dt = _checked(f(setup.duration / layout.n_steps), traced_param_checks(params) + maps)
+    table = {**specs(PSTParams), "fall_deg": FALL_DEG_SPEC}
+    table.update(stability=STABILITY_SPEC, wl_friction=WL_FRICTION_SPEC)
+    maps = dict(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
+    maps.update(thickness=thickness, stability=stability, wl_friction=wl_friction)
+    checks = _param_checks(params) + traced_checks(maps, table, "cell")
+    dt = _checked(f(setup.duration / layout.n_steps), checks)
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)

@@ -17,11 +17,6 @@ import jax.numpy as jnp
 
 from damjax.materials import mcc, weak_layer
 
-# what marks a slab fracture: an opening strain of FRACTURE_STRAIN without a particle
-# lattice (`Model.lattice` = ()), a band opening of FRACTURE_OPENING or more with one
-# (`damjax.materials.slab_fracture.fracture_opening`)
-from damjax.materials.slab_fracture import FRACTURE_OPENING, FRACTURE_STRAIN  # noqa: F401
-
 # fault codes raised by the runtime guards (bit flags)
 FAULT_NAN = 1
 FAULT_EDGE = 2

@@ -29,18 +29,6 @@ from damjax.core import transfer
 from damjax.core.state import FAULT_EDGE, FAULT_NAN, FAULT_THICKNESS, Model, State
 from damjax.materials import mcc, slab, slab_fracture, weak_layer
 
-# the slab's fracture law lives in `damjax.materials.slab_fracture`; these names stay
-# importable from here, where they were defined before 2026-11-26
-from damjax.materials.slab_fracture import (  # noqa: E402, F401
-    OPENED,
-    band_opening,
-    band_openings,
-    crack_band_opening,
-    fracture_opening,
-    fracture_strain,
-    principal_opening,
-)
-
 
 def stress_tensor(sigma: Any, dim: int) -> list[list[Any]]:
     """In-plane stress tensor as dim x dim nested lists of (n,) rows, from (xx, yy, xy)."""

@@ -39,10 +39,11 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-# how P2G adds the particles' contributions (`p2g_channels`): "fixed" (deterministic
-# fixed point), "float" (plain float scatter-adds, order-dependent on a GPU) or "auto"
-# (what `resolve_accumulation` picks for the backend: the default of the setups)
-ACCUMULATIONS = ("auto", "fixed", "float")
+from damjax.constants import ACCUMULATIONS
+
+# how P2G adds the particles' contributions (`p2g_channels`), `ACCUMULATIONS`: "fixed"
+# (deterministic fixed point), "float" (plain float scatter-adds, order-dependent on a
+# GPU) or "auto" (what `resolve_accumulation` picks for the backend: the setups' default)
 
 
 def resolve_accumulation(accumulation: str, backend: str | None = None) -> str:

@@ -8,7 +8,7 @@ release area and of the up-slope arrest distance (5 %, 50 %, 95 % quantiles)::
 
     ens = damjax.ensemble.load("slope-generic-50x60", members=32)
     ds = damjax.ensemble.run(ens, "out/fig12a-ensemble")
-    ds["release_probability"].plot()
+    ds["release_probability"].plot()              # then plt.savefig(...) in a script
 
 or ``damjax ensemble slope-generic-50x60 --members 32 --out out/fig12a-ensemble``.
 
@@ -63,9 +63,15 @@ Files in the output folder (each written atomically, `damjax.io.atomic_path`):
 - ``ensemble.nc``: every member (``member`` dimension: per-member summaries, drawn
   parameters, seeds, maps ``released``, ``arrival_time``, ``height``, ``tau_peak``) and the
   products (``release_probability``, ``release_area_m2_quantiles``,
-  ``upslope_arrest_distance_m_quantiles``); no wall-clock numbers, so a killed and resumed
-  ensemble gives the same file as an uninterrupted one;
-- ``ensemble.png`` (`plot_ensemble`), ``ensemble_summary.json`` (quantiles, timings).
+  ``upslope_extent_m_quantiles``, ``upslope_arrest_distance_m_quantiles`` over the
+  members whose up-slope front arrested); no wall-clock numbers, so a killed and resumed
+  ensemble gives the same file as an uninterrupted one, bit for bit (the members' strength
+  fields are drawn on the host, `damjax.fields.grf`, so they do not depend on what else
+  the devices run);
+- ``ensemble.png`` (`plot_ensemble`), ``ensemble_summary.json`` (quantiles, timings);
+- ``.damjax-ensemble.lock`` while a run writes into the folder: it names the run's pid and
+  host, and a second run into the folder stops with an error naming them (the lock is the
+  kernel's, so a killed run leaves none behind that counts).
 
 Resume: run the same command again. Finished slices are read, not run; a larger
 ``--members`` adds members to a finished ensemble. Several processes

@@ -40,10 +40,13 @@ from damjax.ensemble.products import (
     slice_name,
 )
 from damjax.ensemble.spec import Ensemble, _is_int, key_of, member_draws, member_scenario
+from damjax.scenario import prepared
 from damjax.scenario.slope_fields import resolve_inputs, simulate
+from damjax.slope.simulation import steepest_covered
 from damjax.validation import ensure_x64
 
 PLAN_FILE = "plan.json"
+LOCK_FILE = ".damjax-ensemble.lock"  # held by the run writing into the folder
 MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # On a CPU device a vmapped slice of slope members ran slower per member than the members
 # one at a time (Fig. 12a slope, 0.3 s, 2 cores, 2026-11-25: 14 s per member vmapped by 2,
@@ -65,7 +68,8 @@ def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
     """One layout for every member: the largest grid padding and the smallest time step
     any member needs (`damjax.core.model.make_slope_layout`)."""
     scn = ens.scenario
-    max_slope = _resolve(scn).max_slope_deg
+    prep = prepared(scn)  # read and checked when the scenario was
+    max_slope = steepest_covered(prep.slope_deg, prep.cover)
     members = range(ens.members) if members is None else members
     layouts = []
     for i in members if (ens.params or ens.strength) else [0]:
@@ -166,6 +170,9 @@ class _Runner:
         for _ in range(self.layout.n_chunks):
             states = self.compiled(models, states)
             if progress is not None:
+                # a call returns once the chunk is queued: count it when it is done (the
+                # bar reached 100 % while the members were still running)
+                states = jax.block_until_ready(states)
                 progress(self.layout.chunk_steps)
         return jax.block_until_ready(states)
 
@@ -257,6 +264,41 @@ def run(
     out = Path(out_dir)
     slices_dir = out / SLICE_DIR
     slices_dir.mkdir(parents=True, exist_ok=True)
+    # one run per folder: process 0 holds the lock for its job, and every process of the
+    # job hears whether it got it (before anything in the folder is touched)
+    held, problem = None, None
+    if distributed.process_index() == 0:
+        try:
+            held, left = _lock_folder(out)
+            if left:
+                say(f"took over the lock a finished or killed run left ({left})")
+        except ValueError as exc:
+            problem = str(exc)
+    problem = distributed.allgather_objects(problem)[0]
+    if problem:
+        raise ValueError(problem)
+    try:
+        return _run_locked(
+            ens, out, slice_size, memory_fraction, devices, plot, progress, say, on_slice, t_start
+        )
+    finally:
+        _unlock_folder(out, held)
+
+
+def _run_locked(
+    ens: Ensemble,
+    out: Path,
+    slice_size: int | None,
+    memory_fraction: float,
+    devices: list[Any] | None,
+    plot: bool,
+    progress: bool,
+    say: Callable[[str], None],
+    on_slice: Callable[[int, int], None] | None,
+    t_start: float,
+) -> Any:
+    """`run` once the folder is this run's."""
+    slices_dir = out / SLICE_DIR
     io.remove_stale_temporaries(slices_dir)
     io.remove_stale_temporaries(out)
     devices = list(jax.local_devices()) if devices is None else list(devices)
@@ -410,6 +452,66 @@ def run(
     if summary is not None:
         ds.attrs["run_summary"] = json.dumps(summary)
     return ds
+
+
+def _lock_folder(out: Path) -> tuple[Any, str | None]:
+    """Take ``out/LOCK_FILE`` for this run: an exclusive `fcntl.flock` on a file naming
+    the holder (pid, host, start). The kernel drops the lock when its process ends,
+    however it ends, so the file a killed run left behind is taken over; (the open file,
+    holding the lock, and the text a killed run had left in it, or None). ValueError
+    naming the holder when a running process has it. Without `fcntl` (Windows): no lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not a POSIX system
+        return None, None
+    import socket
+
+    path = out / LOCK_FILE
+    for _ in range(10):
+        fh = open(path, "a+", encoding="utf-8")  # noqa: SIM115 - held for the run
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            fh.close()
+            raise ValueError(
+                f"{out}: in use by another damjax ensemble ({holder}); wait for it to "
+                "finish, or give another --out"
+            ) from None
+        # the holder before us may have removed the file as we opened it: ours must be
+        # the file at the path, else try again
+        try:
+            same = os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        fh.close()
+    else:  # pragma: no cover - the path replaced ten times over
+        raise ValueError(f"{out}: cannot take {LOCK_FILE}; give another --out")
+    fh.seek(0)
+    left = fh.read().strip() or None
+    fh.seek(0)
+    fh.truncate()
+    fh.write(
+        f"pid {os.getpid()} on {socket.gethostname()}, started "
+        f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n"
+    )
+    fh.flush()
+    return fh, left
+
+
+def _unlock_folder(out: Path, fh: Any) -> None:
+    """Remove the lock file, then release it (a process waiting on the removed file
+    sees that it is gone and opens the path again)."""
+    if fh is None:
+        return
+    try:
+        (out / LOCK_FILE).unlink(missing_ok=True)
+    finally:
+        fh.close()
 
 
 def _mib(b: int | None) -> str:

@@ -12,7 +12,7 @@ import jax
 
 from damjax import distributed, io
 from damjax.ensemble.batch import run
-from damjax.ensemble.products import ENSEMBLE_FILE, FIGURE, SUMMARY_FILE
+from damjax.ensemble.products import ENSEMBLE_FILE, FIGURE, QUANTILE_KEYS, SUMMARY_FILE
 from damjax.ensemble.spec import load
 
 DESCRIPTION = "Release-probability ensemble of a slope scenario (damjax.ensemble)."
@@ -113,19 +113,19 @@ def command(ns: Any) -> int:
     if distributed.process_index() != 0:
         return 0
     summary = json.loads(ds.attrs["run_summary"])
+    quantiles = [f"{name}_quantiles" for name in QUANTILE_KEYS]
     if ns.json:
-        keys = (
-            "members",
-            "release_area_m2_quantiles",
-            "upslope_arrest_distance_m_quantiles",
-            "wall_time_s",
-        )
+        keys = ("members", "upslope_arrested_members", *quantiles, "wall_time_s")
         print(io.to_json({**{k: summary[k] for k in keys}, "out_dir": str(out)}))
     else:
-        for name in ("release_area_m2_quantiles", "upslope_arrest_distance_m_quantiles"):
+        for name in quantiles:
             q = summary[name]
-            print(f"{name:38s} " + "  ".join(f"{k} {v:.4g}" for k, v in q.items()))
+            print(
+                f"{name:38s} "
+                + "  ".join(f"{k} {'n/a' if v is None else format(v, '.4g')}" for k, v in q.items())
+            )
         print(f"{'members':38s} {summary['members']}")
+        print(f"{'upslope_arrested_members':38s} {summary['upslope_arrested_members']}")
         print(f"{'wall_time_s':38s} {summary['wall_time_s']:.1f}")
         for f in (ENSEMBLE_FILE, FIGURE, SUMMARY_FILE):
             if (out / f).is_file():

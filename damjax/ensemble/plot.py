@@ -1,6 +1,6 @@
 """The ensemble's figure: the release probability over the terrain with the start window
-and the members' starts, and histograms of the release area and of the up-slope arrest
-distance with their quantiles."""
+and the members' starts, and histograms of the release area and of the up-slope extent
+with their quantiles."""
 
 from __future__ import annotations
 
@@ -14,8 +14,10 @@ from damjax import io
 
 def plot_ensemble(ds: Any, path: str | os.PathLike[str] | None = None) -> Any:
     """Release probability over the terrain (slope-angle contours, the start window and
-    the members' starts), and histograms of the release area and of the up-slope arrest
-    distance with their 5/50/95 % quantiles. Returns the Figure; writes it to ``path``."""
+    the members' starts; the legend below the map), and histograms of the release area
+    and of the up-slope extent of the release from the start (members whose up-slope front
+    arrested darker) with their 5/50/95 % quantiles, on whole member counts. Returns the
+    Figure; writes it to ``path``."""
     from damjax.plot import _plt
 
     plt = _plt()
@@ -55,18 +57,38 @@ def plot_ensemble(ds: Any, path: str | os.PathLike[str] | None = None) -> Any:
             )
         )
     ax.plot(ds["start_y"].values, ds["start_x"].values, "*", color="tab:blue", ms=6, label="starts")
-    ax.legend(loc="upper right", fontsize=8)
+    # below the map: inside it the legend covered the contours' labels
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=8, frameon=False)
     ax.set_xlabel("y across [m]")
     ax.set_ylabel("x up-slope [m]")
     ax.set_title(f"{ds.sizes['member']} members")
+    from matplotlib.ticker import MaxNLocator
+
+    up = "upslope_extent_m" if "upslope_extent_m" in ds else "upslope_arrest_distance_m"
     for ax, name, label in (
         (axes[1], "release_area_m2", "release area [m²]"),
-        (axes[2], "upslope_arrest_distance_m", "up-slope arrest distance [m]"),
+        (axes[2], up, "up-slope extent of the release from the start [m]"),
     ):
         vals = ds[name].values
-        vals = vals[np.isfinite(vals)]
-        ax.hist(vals, bins=max(5, min(30, vals.size // 2)), color="0.6")
+        ok = np.isfinite(vals)
+        bins = np.histogram_bin_edges(vals[ok], bins=max(5, min(30, int(ok.sum()) // 2)))
+        if name == "upslope_extent_m" and "upslope_front" in ds:
+            # the members whose up-slope front arrested apart from the others
+            state = ds["upslope_front"].values.astype(str)
+            ax.hist(
+                [vals[ok & (state == "arrested")], vals[ok & (state != "arrested")]],
+                bins=bins,
+                stacked=True,
+                color=["0.45", "0.8"],
+                label=["arrested", "reached the top or still moving"],
+            )
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, frameon=False)
+        else:
+            ax.hist(vals[ok], bins=bins, color="0.6")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # member counts are whole
         for q, v in zip(ds["quantile"].values, ds[f"{name}_quantiles"].values, strict=True):
+            if not np.isfinite(v):
+                continue
             ax.axvline(v, color="tab:red", ls="--" if q != 0.5 else "-", lw=1)
             ax.text(
                 v,

@@ -20,12 +20,17 @@ FIGURE = "ensemble.png"
 SUMMARY_FILE = "ensemble_summary.json"
 SLICE_DIR = "slices"
 QUANTILES = (0.05, 0.5, 0.95)
+# the per-member summaries with quantiles (the arrest distance: over the members that
+# arrested; NaN where none did)
+QUANTILE_KEYS = ("release_area_m2", "upslope_extent_m", "upslope_arrest_distance_m")
 TIMING_KEYS = ("compile_time_s", "wall_time_s", "particle_steps_per_s")
 SUMMARY_KEYS = (
     "release_area_m2",
+    "upslope_extent_m",
     "upslope_arrest_distance_m",
     "upslope_arrest_position_m",
     "crossslope_extent_m",
+    "crossslope_arrest_distance_m",
     "crown_area_m2",
     "stauchwall_area_m2",
     "slab_fracture_area_m2",
@@ -42,22 +47,34 @@ SUMMARY_KEYS = (
     "outflow_area_m2",
     "arrival_sources",
 )
+# the fronts' states (strings: "arrested", "reached_edge", "moving", "sawn_only")
+STATE_KEYS = ("upslope_front", "crossslope_front")
 _UNITS = {
     "release_area_m2": ("m2", "area of failed weak layer"),
+    "upslope_extent_m": (
+        "m",
+        "up-slope extent of the release from the start, within 1 m across of it",
+    ),
     "upslope_arrest_distance_m": (
         "m",
-        "up-slope arrest distance from the start (the area's top where arrested_before_top "
-        "is 0: a lower bound there)",
+        "up-slope arrest distance from the start (NaN where upslope_front is not arrested)",
     ),
-    "upslope_arrest_position_m": ("m", "up-slope arrest position from the lower edge"),
+    "upslope_arrest_position_m": (
+        "m",
+        "up-slope arrest position from the lower edge (NaN where not arrested)",
+    ),
     "crossslope_extent_m": (
         "m",
         "cross-slope extent of the release from the start, within 1 m up or down slope of it",
     ),
+    "crossslope_arrest_distance_m": (
+        "m",
+        "cross-slope arrest distance from the start (NaN where crossslope_front is not arrested)",
+    ),
     "crown_area_m2": ("m2", "area of slab with h < 0.98 h0 (crown)"),
     "stauchwall_area_m2": ("m2", "area of slab with h > 1.02 h0 (stauchwall)"),
     "slab_fracture_area_m2": ("m2", "area of fractured slab"),
-    "arrested_before_top": ("1", "up-slope front arrested below the top edge"),
+    "arrested_before_top": ("1", "up-slope front arrested (upslope_front is arrested)"),
     "front_quiet_at_end": ("1", "no up-slope failure in the last 0.3 s"),
     "last_upslope_failure_time_s": ("s", "time of the last up-slope failure"),
     "critical_cut_radius_m": ("m", "sawn radius when the crack ran by itself"),
@@ -107,6 +124,13 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         if units == "1" and key in ("arrested_before_top", "front_quiet_at_end"):
             arr = arr.astype(np.int8)
         data[key] = var(("member",), arr, units, long_name)
+    for key in STATE_KEYS:
+        data[key] = var(
+            ("member",),
+            np.array([str(r.summary.get(key, "")) for r in results], dtype=str),
+            "1",
+            f"state of the {key.split('_')[0]} front: arrested, reached_edge, moving or sawn_only",
+        )
     for part, pre in ((0, "param_"), (1, "strength_")):
         names = sorted(ens.params if part == 0 else ens.strength)
         for name in names:
@@ -177,14 +201,10 @@ _KIND_UNITS = {("stability", "mean"): "1"}
 
 
 def _param_units(name: str) -> str:
-    """CF units of a drawn PSTParams field, from its valid range's text ("(0, inf) Pa")."""
-    from damjax.validation import PARAM_RULES
+    """CF units of a drawn PSTParams field (its declaration, `damjax.params`)."""
+    from damjax.params import PSTParams, specs
 
-    text = PARAM_RULES.get(name, (None, ""))[1]
-    unit = text.rsplit(")", 1)[-1].rsplit("]", 1)[-1].strip()
-    return {"deg": "degree", "Pa/m": "Pa m-1", "kg/m^3": "kg m-3", "J/m^2": "J m-2"}.get(
-        unit, unit or "1"
-    )
+    return specs(PSTParams)[name].cf_unit
 
 
 def slice_name(a: int, b: int) -> str:
@@ -203,8 +223,9 @@ def done_slices(folder: Path) -> dict[tuple[int, int], Path]:
 
 def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = None) -> Any:
     """The ensemble dataset of members 0..members-1 from the slice files of ``out_dir``,
-    with its products: ``release_probability`` (x, y), ``release_area_m2_quantiles`` and
-    ``upslope_arrest_distance_m_quantiles`` (quantile)."""
+    with its products: ``release_probability`` (x, y) and the quantiles (``quantile``)
+    of `QUANTILE_KEYS`: ``release_area_m2_quantiles``, ``upslope_extent_m_quantiles`` and
+    ``upslope_arrest_distance_m_quantiles`` (over the members that arrested)."""
     import xarray as xr
 
     parts = []
@@ -243,12 +264,13 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
     }
     q = np.asarray(QUANTILES)
     ds = ds.assign_coords(quantile=("quantile", q, {"units": "1", "long_name": "probability"}))
-    for name in ("release_area_m2", "upslope_arrest_distance_m"):
+    for name in QUANTILE_KEYS:
         vals = ds[name].values
+        over = " over the members whose up-slope front arrested" if "arrest" in name else ""
         ds[f"{name}_quantiles"] = (
             ("quantile",),
             np.quantile(vals[np.isfinite(vals)], q) if np.any(np.isfinite(vals)) else q * np.nan,
-            {"units": ds[name].attrs["units"], "long_name": f"quantiles of {name}"},
+            {"units": ds[name].attrs["units"], "long_name": f"quantiles of {name}{over}"},
         )
     ds.attrs = {
         "title": "damjax slope release ensemble",
@@ -268,17 +290,23 @@ def _version() -> str:
 
 
 def quantile_summary(ds: Any) -> dict[str, Any]:
-    """``members`` and the quantile objects (q05, q50, q95) of the release area [m^2] and
-    the up-slope arrest distance [m] of an ensemble dataset."""
+    """``members``, ``upslope_arrested_members`` (how many members' up-slope front
+    arrested) and the quantile objects (q05, q50, q95; None where no member had a value)
+    of the release area [m^2], the up-slope extent [m] and the up-slope arrest distance
+    [m] (over the members that arrested) of an ensemble dataset."""
 
-    def obj(name: str) -> dict[str, float]:
+    def obj(name: str) -> dict[str, float | None]:
         return {
-            f"q{round(100 * q):02d}": float(v)
+            f"q{round(100 * q):02d}": float(v) if np.isfinite(v) else None
             for q, v in zip(QUANTILES, ds[f"{name}_quantiles"].values, strict=True)
         }
 
+    if "upslope_front" in ds:
+        arrested = int(np.sum(ds["upslope_front"].values.astype(str) == "arrested"))
+    else:  # an ensemble.nc of an earlier version
+        arrested = int(np.sum(np.isfinite(ds["upslope_arrest_distance_m"].values)))
     return {
         "members": int(ds.sizes["member"]),
-        "release_area_m2_quantiles": obj("release_area_m2"),
-        "upslope_arrest_distance_m_quantiles": obj("upslope_arrest_distance_m"),
+        "upslope_arrested_members": arrested,
+        **{f"{name}_quantiles": obj(name) for name in QUANTILE_KEYS if f"{name}_quantiles" in ds},
     }

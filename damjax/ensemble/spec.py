@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from damjax.params import SnowParams
+from damjax.params import PSTParams
 from damjax.scenario import parse, resolve
-from damjax.scenario.schema import _fmt, unknown_keys
+from damjax.scenario.schema import _fmt, _is_number, unknown_keys
 from damjax.scenario.slope import PST_ONLY_PARAMS
 from damjax.validation import param_problems
 
@@ -98,10 +98,6 @@ def _frozen(dist: Distribution) -> tuple[Any, float, float]:
     return d, float(d.cdf(lo)), float(d.cdf(hi))
 
 
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
 def _is_int(v: Any, lo: int) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= lo
 
@@ -136,7 +132,7 @@ def _distribution(name: str, table: Any, problems: list[str]) -> Distribution | 
             continue
         if key not in table:
             problems.append(f'{name}.{key}: missing (dist = "{dist}" needs {", ".join(keys[:2])})')
-        elif not _is_number(table[key]):
+        elif not (_is_number(table[key]) and math.isfinite(table[key])):
             problems.append(f"{name}.{key} = {_fmt(table[key])}: must be a finite number")
         else:
             vals[key] = float(table[key])
@@ -212,7 +208,7 @@ ENSEMBLE_KEYS = ("members", "seeds", "param_seed", "slice_size", "params", "stre
 def _scalar_param_fields() -> list[str]:
     return [
         f.name
-        for f in dataclasses.fields(SnowParams)
+        for f in dataclasses.fields(PSTParams)
         if f.name not in PST_ONLY_PARAMS and np.ndim(f.default) == 0 and f.default is not None
     ]
 
@@ -381,13 +377,12 @@ def _member_problems(ens: Ensemble) -> list[str]:
     for i in range(ens.members):
         pdraw, sdraw = member_draws(ens, i)
         params = dataclasses.replace(ens.scenario.params, **pdraw)
-        for line in param_problems(params, None):
-            name = line.split(" ", 1)[0].split("=", 1)[0].strip()
+        for problem in param_problems(params, None):
+            name = problem.field
             if name in pdraw:
-                why = line.split(": ", 1)[-1]
                 out.append(
-                    f"ensemble.params.{name}: member {i} draws {pdraw[name]:.6g}: {why} "
-                    f"(give ensemble.params.{name}.bounds)"
+                    f"ensemble.params.{name}: member {i} draws {pdraw[name]:.6g}: "
+                    f"{problem.reason} (give ensemble.params.{name}.bounds)"
                 )
         for name, v in sdraw.items():
             positive = name in ("mean", "tau_peak", "length_scale")

@@ -7,7 +7,7 @@
 - `damjax.export.avaframe`: an AvaFrame avalanche directory (``Inputs/`` with the DEM as
   an ESRI ASCII grid and the release zones as a shapefile in ``Inputs/REL/`` with the
   ``thickness`` attribute com1DFA reads). Needs ``damjax[geo]``; running AvaFrame itself
-  needs ``avaframe`` (see ``benchmarks/avaframe_runout.py``).
+  needs ``avaframe`` (see ``verification/avaframe_runout.py``).
 
 Both read a slope run's folder (``results.nc`` written by ``damjax run``) or an ensemble's
 ``ensemble.nc`` (with the scenario given separately). Nothing here is imported by

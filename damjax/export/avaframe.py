@@ -18,7 +18,7 @@ shapefile attribute ``thickness`` (or ``d0``; names are lower-cased,
 - the other input folders AvaFrame's ``initializeFolderStruct`` creates (empty), and
   ``damjax_export.json`` (source run, zones, thickness rule).
 
-Running com1DFA on it: ``benchmarks/avaframe_runout.py``. AvaFrame pins numpy < 2 (jax needs
+Running com1DFA on it: ``verification/avaframe_runout.py``. AvaFrame pins numpy < 2 (jax needs
 numpy >= 2): install it in its own environment (``pip install avaframe``) and point the
 benchmark (or the test) at its Python with ``DAMJAX_AVAFRAME_PYTHON``.
 """

@@ -24,6 +24,7 @@ import numpy as np
 from jax import Array
 from jax.typing import ArrayLike
 
+from damjax._tracing import is_traced
 from damjax.fields.maps import map_on_grid
 
 CovarianceModel = Literal["gaussian", "exponential"]
@@ -138,14 +139,9 @@ def embedding_shape(
     return tuple(_next_fast_size(2 * int(n) + p) for n, p in zip(shape, pads, strict=True))
 
 
-def _traced(value: object) -> bool:
-    """Whether any leaf of a value (a number, an array or a tuple of them) is traced."""
-    return any(isinstance(v, jax.core.Tracer) for v in jax.tree.leaves(value))
-
-
 def _concrete(value: ArrayLike, name: str) -> np.ndarray:
     """The value of a possibly differentiated argument, or a clear error inside jit."""
-    if not _traced(value):
+    if not is_traced(value):
         return np.asarray(value, dtype=float)  # a constant, also inside jit
     try:
         return np.asarray(jax.lax.stop_gradient(value), dtype=float)
@@ -191,8 +187,10 @@ def grf(
     float32 and float64 alike, to rounding: the white noise is drawn in float32), and
     `jax.grad` of a statistic of the field with respect to these parameters is finite. It is
     jittable with `shape`, `dx`, `model`, `floor` and `embed_shape` static; when
-    `length_scale` is traced, pass `embed_shape`. Draw many samples with
-    ``jax.vmap(lambda k: grf(k, ...))(jax.random.split(key, n))``.
+    `length_scale` is traced, pass `embed_shape`. With concrete arguments the transforms
+    run on the host in numpy (the same bits on every call, whatever else runs: XLA:CPU's
+    FFT is not, see `_grf_host`); traced ones run in XLA and agree to rounding. Draw many
+    samples with ``jax.vmap(lambda k: grf(k, ...))(jax.random.split(key, n))``.
 
     Args:
         key: JAX PRNG key (the seed).
@@ -232,15 +230,15 @@ def grf(
         ("trend", trend, (1, ndim)),
         ("std", std, (1,)),
     ):
-        if not _traced(value) and np.size(value) not in sizes:
+        if not is_traced(value) and np.size(value) not in sizes:
             raise ValueError(
                 f"grf: {name} = {value!r}: must have "
                 + " or ".join(str(k) for k in sizes)
                 + f" value(s) on a {ndim}D grid"
             )
-    if not _traced(std) and not float(np.asarray(std)) >= 0:
+    if not is_traced(std) and not float(np.asarray(std)) >= 0:
         raise ValueError(f"grf: std = {std!r}: must be in [0, inf) Pa")
-    if not _traced(length_scale):
+    if not is_traced(length_scale):
         ls = np.asarray(length_scale, dtype=float)
         if not np.all(np.isfinite(ls) & (ls > 0)):
             raise ValueError(f"grf: length_scale = {length_scale!r}: must be in (0, inf) m")
@@ -250,19 +248,11 @@ def grf(
     embed_shape = tuple(int(m) for m in embed_shape)
     if len(embed_shape) != ndim or any(m < n for m, n in zip(embed_shape, shape, strict=True)):
         raise ValueError(f"grf: embed_shape {embed_shape} must cover shape {shape}")
-    return _grf(
-        key,
-        mean,
-        std,
-        length_scale,
-        angle_deg,
-        trend,
-        shape=shape,
-        spacing=spacing,
-        model=model,
-        floor=floor,
-        embed_shape=embed_shape,
-    )
+    args = (key, mean, std, length_scale, angle_deg, trend)
+    kw = dict(shape=shape, spacing=spacing, model=model, floor=floor, embed_shape=embed_shape)
+    if not is_traced(args):
+        return jnp.asarray(_grf_host(*args, **kw))
+    return _grf(*args, **kw)
 
 
 def trend_direction(trend_deg: float) -> tuple[float, float]:
@@ -423,6 +413,70 @@ def stability_field(
     s2 = math.log1p((float(cov) * float(mean) / m) ** 2)
     z = _cell_noise(key, x, ny, dx, 1.0, length_scale, angle_deg, model, field_dx)
     return 1.0 + m * np.exp(math.sqrt(s2) * z - 0.5 * s2)
+
+
+def _grf_host(
+    key: Array,
+    mean: ArrayLike,
+    std: ArrayLike,
+    length_scale: ArrayLike,
+    angle_deg: ArrayLike,
+    trend: ArrayLike,
+    *,
+    shape: tuple[int, ...],
+    spacing: tuple[float, ...],
+    model: str,
+    floor: float | None,
+    embed_shape: tuple[int, ...],
+) -> np.ndarray:
+    """`_grf` for concrete arguments, with numpy's FFT on the host (float64, returned in
+    JAX's default float dtype, as `_grf`'s).
+
+    XLA:CPU's FFT splits its lines over the threads that are free at the time, and the
+    result changes in the last bits with that split: with a matrix product running on a
+    second thread, 3 of 40 draws of the same seed (360 x 225 embedding) differed by a
+    float32 rounding step (2026-11-27), enough for two runs of one ensemble to differ.
+    numpy's FFT runs on one thread and gives the same bits every time; the white noise is
+    JAX's (threefry, the same on every device and thread). The traced path (`_grf`: under
+    `jax.grad`, `jax.vmap`, `jax.jit`) keeps XLA's FFT and agrees to rounding.
+    """
+    dtype = np.dtype(jnp.result_type(float))
+    ndim = len(shape)
+    lags = []
+    for axis, (m, h) in enumerate(zip(embed_shape, spacing, strict=True)):
+        k = np.arange(m)
+        lag = np.where(k <= m // 2, k, k - m).astype(float) * h
+        lags.append(np.reshape(lag, [-1 if a == axis else 1 for a in range(ndim)]))
+    ls = np.asarray(length_scale, dtype=float)
+    if ndim == 1:
+        r2 = (lags[0] / np.ravel(ls)[0]) ** 2
+    else:
+        l1, l2 = np.broadcast_to(ls, (2,))
+        a = np.deg2rad(float(np.asarray(angle_deg)))
+        u = np.cos(a) * lags[0] + np.sin(a) * lags[1]
+        v = -np.sin(a) * lags[0] + np.cos(a) * lags[1]
+        r2 = (u / l1) ** 2 + (v / l2) ** 2
+    rho = np.exp(-0.25 * np.pi * r2) if model == "gaussian" else np.exp(-np.sqrt(r2))
+    eig = np.real(np.fft.fftn(rho))
+    n_embed = math.prod(embed_shape)
+    # the cut of `_grf`: eigenvalues below the rounding level of the precision in use
+    cut = 16.0 * np.finfo(dtype).eps * np.max(eig)
+    amplitude = np.where(eig > cut, np.sqrt(np.maximum(eig, 0.0) / n_embed), 0.0)
+    noise = np.asarray(jax.random.normal(key, (2, *embed_shape), jnp.float32), dtype=float)
+    z = np.real(np.fft.fftn(amplitude * (noise[0] + 1j * noise[1])))
+    z = z[tuple(slice(0, n) for n in shape)]
+    grad = np.ravel(np.asarray(trend, dtype=float))
+    if grad.size == 1 and ndim == 2:  # a scalar trend is along x (up-slope)
+        grad = np.concatenate([grad, np.zeros(1)])
+    field = float(np.asarray(mean)) + float(np.asarray(std)) * z
+    for axis, (n, h) in enumerate(zip(shape, spacing, strict=True)):
+        coord = np.arange(n, dtype=float) * h  # measured from the first node
+        field = field + grad[axis] * np.reshape(
+            coord, [-1 if a == axis else 1 for a in range(ndim)]
+        )
+    if floor is not None:
+        field = np.maximum(field, floor)
+    return field.astype(dtype)
 
 
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))

@@ -23,15 +23,6 @@ def plane_stress(eps: Any, youngs_modulus: Any, poisson: Any) -> tuple[Any, Any,
     return c * (exx + poisson * eyy), c * (eyy + poisson * exx), c * (1.0 - poisson) * exy
 
 
-def lateral_strain(eps_xx: Any, poisson: Any, lateral: str) -> Any:
-    """eps_yy of an elastic width-uniform strip under the lateral condition."""
-    if lateral == "constrained":
-        return jnp.zeros_like(eps_xx)
-    if lateral == "free":
-        return -poisson * eps_xx
-    raise ValueError(f"lateral = {lateral!r}: must be in {{free, constrained}}")
-
-
 def area_ratio(eps: Any) -> Any:
     """J = exp(eps_xx + eps_yy): in-plane (column-base) area ratio [-]; h = h0 / J.
 

@@ -6,7 +6,9 @@
 - `slope`: ``type = "slope"`` (``[terrain]``, ``[strength]`` fields of a release area),
   resolved to fields and run by `slope_fields`.
 
-``damjax.scenario.load("quick")`` reads a shipped scenario; `damjax.runner` runs one.
+``damjax.scenario.load("quick")`` reads a shipped scenario, checked once: `prepared` gives
+the checked run (`damjax.pst.prepare`, `damjax.slope.simulation.prepare`) that
+`damjax.runner` runs.
 """
 
 from damjax.scenario import pst, slope  # noqa: F401  (each registers its scenario type)
@@ -27,6 +29,7 @@ from damjax.scenario.schema import (
     load,
     loads,
     parse,
+    prepared,
     problems,
     register,
     resolve,
@@ -50,6 +53,7 @@ __all__ = [
     "load",
     "loads",
     "parse",
+    "prepared",
     "problems",
     "register",
     "resolve",

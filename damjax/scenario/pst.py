@@ -1,6 +1,7 @@
 """PST scenarios (``type = "pst"``): the ``[params]``, ``[setup]`` and ``[strength]``
-tables of a PST run checked against `damjax.PSTParams` / `damjax.PSTSetup` and the rules
-of `damjax.validation` (the format: `damjax.scenario.schema`).
+tables of a PST run, read as `damjax.PSTParams` / `damjax.PSTSetup` (their declarations
+give each key's kind) and checked once by `damjax.pst.prepare`, its problems worded with
+the file's keys (the format: `damjax.scenario.schema`).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from damjax import fields
+from damjax import fields, pst
 from damjax.params import PSTParams, PSTSetup
 from damjax.scenario.schema import (
     MAX_PARTICLES,
@@ -23,66 +24,82 @@ from damjax.scenario.schema import (
     Scenario,
     _check_section,
     _fmt,
-    _retarget,
+    prepared,
     register,
+    toml_lines,
     unknown_keys,
 )
-from damjax.validation import dubious, param_problems, setup_problems, validate
+from damjax.validation import InputError
 
 
 def check(
     data: dict[str, Any], base_dir: str | Path | None, problems: list[str]
 ) -> tuple[Scenario | None, list[str]]:
     """The Scenario of a PST document (None with problems appended) and its dubious-value
-    notes. Top-level keys, type and name are checked by the caller (`schema.parse`)."""
+    notes. Top-level keys, type and name are checked by the caller (`schema.parse`); the
+    values by `damjax.pst.prepare`, whose result the Scenario carries (`prepared`)."""
     for table in ("terrain", "snow"):
         if table in data:
             problems.append(f'{table}: only for type = "slope" scenarios')
     pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
-    svals, sbad, sgiven = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
+    svals, sbad, _ = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)
 
-    reported = {f"params.{k}" for k in pbad} | {f"setup.{k}" for k in sbad}
     profile_notes: list[str] = []
     if "profile" in data:
         pvals, profile_notes = _profile_values(data["profile"], pvals, base_dir, problems)
-    params = PSTParams(**pvals)
-    setup = PSTSetup(**svals)
     strength_notes: list[str] = []
+    resolve = None
     if "strength" in data:
-        prof, strength_notes = _strength_profile(
-            data["strength"], params, setup, "strength_profile" in pvals, base_dir, problems
+        table = _strength_table(data["strength"], "strength_profile" in pvals, problems)
+        if table is not None:
+
+            def resolve(setup: PSTSetup, params: PSTParams) -> PSTParams:
+                prof, notes = _strength_profile(table, params, setup, base_dir, problems)
+                strength_notes.extend(notes)
+                return (
+                    params if prof is None else dataclasses.replace(params, strength_profile=prof)
+                )
+
+    given = {**pvals, **svals}
+    try:
+        prep = pst.prepare(
+            PSTParams(**pvals),
+            PSTSetup(**svals),
+            given=pgiven,
+            resolve=resolve,
+            max_particles=MAX_PARTICLES,
+            caller="scenario",
         )
-        if prof is not None:
-            params = dataclasses.replace(params, strength_profile=prof)
-    # field ranges and consistency (damjax.validation's rules), as validate() orders them
-    sprob = setup_problems(setup)
-    if sprob:
-        lines = sprob + param_problems(params, None)
-    else:
-        lines = param_problems(params, setup)
-        if not lines and not reported:
-            lines = _size_problems(params, setup)
-    given = {f"params.{k}": v for k, v in pvals.items()}
-    given.update({f"setup.{k}": v for k, v in svals.items()})
-    problems += _retarget(lines, reported, given)
+    except InputError as exc:
+        bad = pbad | sbad  # their kind was reported: the checks saw the default
+        problems += toml_lines([p for p in exc.problems if p.field not in bad], given)
+        return None, []
     if problems:
         return None, []
     scn = Scenario(
         name=data.get("name"),
-        params=params,
-        setup=setup,
+        params=prep.params,
+        setup=prep.setup,
         description=data.get("description", ""),
         output=Output(**ovals),
         type="pst",
     )
-    notes = profile_notes + strength_notes
-    return scn, notes + dubious(params, setup, pgiven, style="toml")
+    object.__setattr__(scn, "_prepared", prep)
+    notes = [n for n in prep.notes if n.category != "resolution"]
+    return scn, profile_notes + strength_notes + toml_lines(notes, given)
 
 
 def warn_resolution(scn: Scenario) -> None:
-    """`damjax.validation.validate`'s warnings that are not dubious values (dx > Lambda/5)."""
-    validate(scn.params, scn.setup, warn_dubious=False)
+    """The warnings of `damjax.pst.prepare` that are not dubious values (dx > Lambda/5)."""
+    for note in prepared(scn).notes:
+        if note.category == "resolution":
+            warnings.warn(note.text(), stacklevel=3)
+
+
+def prepare(scn: Scenario) -> pst.Prepared:
+    """`damjax.pst.prepare` of a scenario's parameters and setup."""
+    return pst.prepare(scn.params, scn.setup, caller="scenario")
 
 
 def _profile_values(
@@ -152,25 +169,15 @@ def _profile_values(
     return out, notes
 
 
-def _strength_profile(
-    table: Any,
-    params: PSTParams,
-    setup: PSTSetup,
-    has_profile: bool,
-    base_dir: str | Path | None,
-    problems: list[str],
-) -> tuple[np.ndarray | None, list[str]]:
-    """The ``[strength]`` table as a ``strength_profile`` array (None on problems).
-
-    Keys: ``file`` (CSV with columns x_m, tau_peak_pa; relative to ``base_dir``), ``fit``
-    ("none": the CSV is tau_p along the PST; "linear"/"power_law": a measured transect
-    fitted, shifted to params.tau_peak at params.steady_length and extrapolated, see
-    `damjax.fields.pst_strength_profile`), ``points`` (samples over [0, L]; default one
-    per grid node).
-    """
+def _strength_table(table: Any, has_profile: bool, problems: list[str]) -> dict | None:
+    """The ``[strength]`` table's keys checked (None on problems): ``file`` (CSV with
+    columns x_m, tau_peak_pa), ``fit`` ("none": the CSV is tau_p along the PST;
+    "linear"/"power_law": a measured transect fitted, shifted to params.tau_peak at
+    params.steady_length and extrapolated, see `damjax.fields.pst_strength_profile`),
+    ``points`` (samples over [0, L]; default one per grid node)."""
     if not isinstance(table, dict):
         problems.append(f"strength = {_fmt(table)}: must be a table ([strength])")
-        return None, []
+        return None
     n0 = len(problems)
     unknown_keys(table, STRENGTH_KEYS, "strength", problems)
     if has_profile:
@@ -189,12 +196,23 @@ def _strength_profile(
         not isinstance(points, int) or isinstance(points, bool) or points < 2
     ):
         problems.append(f"strength.points = {_fmt(points)}: must be an integer >= 2")
-    if len(problems) > n0 or setup_problems(setup):
-        return None, []
+    return None if len(problems) > n0 else table
+
+
+def _strength_profile(
+    table: dict,
+    params: PSTParams,
+    setup: PSTSetup,
+    base_dir: str | Path | None,
+    problems: list[str],
+) -> tuple[np.ndarray | None, list[str]]:
+    """The checked ``[strength]`` table as a ``strength_profile`` array sampled on the
+    (valid) setup's grid (None on problems, appended), and the reader's warnings."""
     for name in ("tau_peak", "steady_length"):
         v = getattr(params, name)
         if np.ndim(v) != 0 or math.isnan(float(v)):
             return None, []  # reported by the params checks
+    file, fit, points = table["file"], table.get("fit", "none"), table.get("points")
     path = Path(file)
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
@@ -223,19 +241,4 @@ def _strength_profile(
     return prof, notes
 
 
-def _size_problems(params: PSTParams, setup: PSTSetup) -> list[str]:
-    """Runs too large to allocate (a clean error instead of a MemoryError)."""
-    ppc = int(setup.particles_per_cell)
-    n = max(1.0, setup.length / setup.dx) * ppc
-    if setup.dim == 2:
-        n *= (3 if setup.lateral == "constrained" else max(1.0, setup.width / setup.dx)) * ppc
-    if n > MAX_PARTICLES:
-        return [
-            f"setup.length = {setup.length!r}: with setup.dx = {setup.dx!r} and "
-            f"setup.particles_per_cell = {ppc} the run has {n:.3g} particles: must be at "
-            f"most {MAX_PARTICLES:.0e}"
-        ]
-    return []
-
-
-register("pst", check, warn_resolution)
+register("pst", check, warn_resolution, prepare)

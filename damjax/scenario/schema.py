@@ -6,10 +6,12 @@ valid range (``params.poisson = 0.7: must be in (0, 0.5)``); `load` and `parse` 
 one `ValueError` carrying all of them, the CLI prints them and exits with status 2.
 Physically dubious but valid choices raise a `ScenarioWarning` instead.
 
-One module (~620 lines, a sixth of them this format description) on
-purpose: the keys common to every scenario type, their checks and messages live together,
-and the type-specific parts register themselves from `damjax.scenario.pst` and
-`damjax.scenario.slope`.
+One module (~550 lines) on purpose: the keys common to every scenario type, how their
+problems are worded and the format live together, and the type-specific parts register
+themselves from `damjax.scenario.pst` and `damjax.scenario.slope`. The keys of [params]
+and [setup] are the fields of `damjax.params`, whose declarations give each key's kind,
+range and meaning; the values are checked once by the type's `prepare`, and the
+scenario carries the result (`prepared`).
 
 Format (SI units throughout; angles in degrees)::
 
@@ -18,44 +20,15 @@ Format (SI units throughout; angles in degrees)::
     description = "one line"      # optional: shown by `damjax scenarios`
 
     [params]                      # optional: fields of damjax.PSTParams (defaults: paper)
-    slope_deg = 35.0              # slope angle psi [deg], (0, 90)
-    thickness = 0.5               # slab thickness h0 [m]
-    density = 250.0               # slab density rho [kg/m^3]
-    youngs_modulus = 4.0e6        # slab Young's modulus E [Pa]
-    poisson = 0.3                 # slab Poisson ratio nu [-], (0, 0.5)
-    friction_deg = 27.0           # residual friction angle phi of the broken layer [deg]
-    wl_shear_modulus = 2.0e5      # weak-layer shear modulus G_wl [Pa]
-    wl_thickness = 0.04           # weak-layer thickness D_wl [m]
-    tau_peak = 1000.0             # weak-layer peak shear strength tau_p [Pa] (inf allowed)
-    steady_length = 20.0          # length L_ss of constant strength [m]
-    strength_gradient = 500.0     # strength gradient theta beyond L_ss [Pa/m]
-    softening = 0.0               # softening coefficient delta [-]
+    slope_deg = 35.0              # e.g. the slope angle psi [deg], in (0, 90)
     tensile_strength = inf        # slab tensile strength sigma_t [Pa]; inf: elastic slab
-    slab_fracture_energy = 0.12   # G_f [J/m^2] (default: the slab model's, see PSTParams)
-    slab_strength_cov = 0.2       # coefficient of variation of sigma_t, [0, 1]
-    slab_strength_length = 1.0    # its correlation length [m], [0.2, 10]
-    saw_speed = 6.0               # saw (or controlled cut) speed [m/s]
-    # ... and any other PSTParams field (mcc_m, mcc_beta, ...; see its docstring)
 
     [setup]                       # optional: fields of damjax.PSTSetup
-    length = 100.0                # PST length L [m]
+    length = 100.0                # e.g. the PST length L [m]
     dx = 0.02                     # grid spacing [m] (at most Lambda/2)
-    duration = 3.0                # simulated time [s]
-    controlled = false            # true: unbreakable layer cut at saw_speed for the run
-    lateral = "free"              # "free" (sigma_yy = 0) or "constrained" (eps_yy = 0)
-    cfl = 0.5                     # Courant number, (0, 1)
-    particles_per_cell = 2        # integer >= 1
-    dtype = "float32"             # "float32" or "float64"
-    chunk_steps = 1000            # integer >= 1: steps per jitted chunk (snapshots)
-    dim = 1                       # 1 (strip) or 2 (2D step on a strip)
-    width = 0.3                   # strip width for dim = 2 [m]
-    p0_rule = "paper"             # "paper" or "uniaxial"
-    slab_fracture = "paper"       # "paper" (perfectly plastic) or "crack_band" (G_f and a
-                                  # random sigma_t field: params.slab_fracture_energy,
-                                  # slab_strength_cov, slab_strength_length)
-    seed = 0                      # integer, picks the sigma_t field ("crack_band")
-    accumulation = "auto"         # P2G sums: "auto" ("float" on a CPU, "fixed" on a
-                                  # GPU), "fixed" (deterministic fixed point) or "float"
+
+    # every field of [params] and [setup], with its unit, valid range, kind and default:
+    # `damjax.params` (the reference page "Scenario-file keys" is generated from it)
 
     [strength]                    # optional: tau_p from a CSV (columns x_m, tau_peak_pa)
     file = "profile.csv"          # relative to the scenario file's folder
@@ -104,23 +77,16 @@ import difflib
 import importlib.resources
 import math
 import re
-import typing
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from damjax.constants import (
-    DTYPES,
-    LATERAL_CONDITIONS,
-    MCC_INVARIANTS,
-    P0_RULES,
-    SLAB_FRACTURE_MODELS,
-)
-from damjax.params import PSTParams, PSTSetup
-from damjax.validation import NO_CLI_FLAG, PARAM_RULES, SETUP_CHOICES, SETUP_RULES
+from damjax import io
+from damjax.params import PSTParams, PSTSetup, specs
+from damjax.validation import Problem
 
 try:
     import tomllib
@@ -147,20 +113,23 @@ MAX_PARTICLES = 50_000_000  # beyond this a run cannot be allocated on one devic
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
-# scenario type -> (check, warn): check(data, base_dir, problems) -> (Scenario or None,
-# dubious-value notes) appends one line per problem; warn(scn) gives the warnings of a
-# valid scenario (under-resolved dx). Filled by damjax.scenario.pst / .slope on import.
-_TYPES: dict[str, tuple[Callable[..., Any], Callable[..., None]]] = {}
+# scenario type -> (check, warn, prepare): check(data, base_dir, problems) -> (Scenario
+# or None, dubious-value notes) appends one line per problem and attaches the checked run
+# (`prepared`); warn(scn) gives the warnings of a valid scenario (under-resolved dx);
+# prepare(scn) checks a scenario made otherwise (`dataclasses.replace`, by hand). Filled
+# by damjax.scenario.pst / .slope on import.
+_TYPES: dict[str, tuple[Callable[..., Any], Callable[..., None], Callable[..., Any]]] = {}
 
 
 def register(
     kind: str,
     check: Callable[[dict[str, Any], str | Path | None, list[str]], tuple[Any, list[str]]],
     warn: Callable[[Any], None],
+    prepare: Callable[[Any], Any],
 ) -> None:
-    """Register the checker and the warnings of a scenario ``type`` (a module of
-    `damjax.scenario` per type calls this when it is imported)."""
-    _TYPES[kind] = (check, warn)
+    """Register the checker, the warnings and the preparation of a scenario ``type`` (a
+    module of `damjax.scenario` per type calls this when it is imported)."""
+    _TYPES[kind] = (check, warn, prepare)
 
 
 class ScenarioWarning(UserWarning):
@@ -169,17 +138,27 @@ class ScenarioWarning(UserWarning):
 
 @dataclasses.dataclass(frozen=True)
 class Output:
-    """The ``[output]`` table.
+    """The ``[output]`` table (each key's TOML kind and meaning declared beside it)."""
 
-    Attributes:
-        dir: output folder; None: ``damjax-out/<name>`` in the working directory.
-        plot: write ``pst.png``.
-        snapshots: store the per-chunk snapshots in ``results.nc``.
-    """
+    dir: str | None = dataclasses.field(
+        default=None,
+        metadata={
+            "kind": "str?",
+            "doc": "output folder; None: ``damjax-out/<name>`` in the working directory",
+        },
+    )
+    plot: bool = dataclasses.field(
+        default=True, metadata={"kind": "bool", "doc": "write ``pst.png``"}
+    )
+    snapshots: bool = dataclasses.field(
+        default=True,
+        metadata={"kind": "bool", "doc": "store the per-chunk snapshots in ``results.nc``"},
+    )
 
-    dir: str | None = None
-    plot: bool = True
-    snapshots: bool = True
+
+Output.__doc__ += "\n\n    Attributes:\n" + "".join(
+    f"        {f.name}: {f.metadata['doc']}.\n" for f in dataclasses.fields(Output)
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -195,24 +174,18 @@ class Scenario:
     terrain: dict[str, Any] | None = None  # slope scenarios: the [terrain] table
     strength: dict[str, Any] | None = None  # slope scenarios: the [strength] table
     snow: dict[str, Any] | None = None  # slope scenarios: the [snow] table
+    # the checked run the loader made (`prepared`); not copied by `dataclasses.replace`
+    _prepared: Any = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """Every field resolved (defaults included), TOML-ready python values."""
         out: dict[str, Any] = {"type": self.type, "name": self.name}
         out["description"] = self.description
-        params: dict[str, Any] = {}
-        for f in dataclasses.fields(PSTParams):
-            v = _plain(getattr(self.params, f.name))
-            if v is not None:
-                params[f.name] = v
-        out["params"] = params
-        out["setup"] = {
-            f.name: _plain(getattr(self.setup, f.name))
-            for f in dataclasses.fields(type(self.setup))
-        }
+        out["params"] = io.plain_fields(self.params)
+        out["setup"] = io.plain_fields(self.setup)
         for table in ("terrain", "strength", "snow"):
             if getattr(self, table) is not None:
-                out[table] = {k: _plain(v) for k, v in getattr(self, table).items()}
+                out[table] = {k: io.plain(v) for k, v in getattr(self, table).items()}
         out["output"] = {
             f.name: getattr(self.output, f.name)
             for f in dataclasses.fields(Output)
@@ -235,6 +208,15 @@ class Scenario:
             else:
                 data[section] = values
         return parse(data)
+
+
+def prepared(scn: Scenario) -> Any:
+    """The checked run of a scenario (`damjax.pst.Prepared` or
+    `damjax.slope.simulation.PreparedSlope`): the one its loader made, else made now (a
+    scenario from `dataclasses.replace` or made by hand; ValueError on problems)."""
+    if scn._prepared is None:
+        object.__setattr__(scn, "_prepared", _TYPES[scn.type][2](scn))
+    return scn._prepared
 
 
 # --------------------------------------------------------------------------- shipped
@@ -334,7 +316,7 @@ def dubious(data: dict[str, Any]) -> list[str]:
 def _fmt(value: Any, limit: int = 60) -> str:
     """A value as it would read in TOML (shortened)."""
     try:
-        text = _toml_value(value)
+        text = io.toml_value(value)
     except TypeError:
         text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -368,37 +350,26 @@ def _suggest(section: str | None, key: str) -> str:
     if hit:
         return f" (did you mean '{section}.{hit[0]}'?)"
     cls = {"params": "PSTParams", "setup": "PSTSetup", "output": "[output]"}[section]
-    return f" (not a field of {cls}; see the damjax.scenario.schema docstring)"
+    return f" (not a field of {cls}; see damjax.params)"
 
 
 def _known_keys() -> dict[str, list[str]]:
     return {
-        "params": [f.name for f in dataclasses.fields(PSTParams)],
-        "setup": [f.name for f in dataclasses.fields(PSTSetup)],
+        "params": list(specs(PSTParams)),
+        "setup": list(specs(PSTSetup)),
         "output": [f.name for f in dataclasses.fields(Output)],
     }
 
 
-def _kind_of(cls: type, f: dataclasses.Field) -> str:
-    """Expected TOML kind of a field: bool, int, float, str, str?, or array."""
-    try:
-        hint = typing.get_type_hints(cls).get(f.name, Any)
-    except Exception:  # pragma: no cover - unresolvable annotation
-        hint = Any
-    default = f.default if f.default is not dataclasses.MISSING else None
-    if hint is bool or isinstance(default, bool):
-        return "bool"
-    if hint is int or (hint is Any and type(default) is int):
-        return "int"
-    if hint is float or (hint is Any and type(default) is float):
-        return "float"
-    if hint is str or isinstance(default, str):
-        return "str"
-    if hint == (str | None):
-        return "str?"
-    return "array"
-
-
+# TOML kind of each kind of declaration (`damjax.params.Spec.kind`), and of [output]
+_TOML_KINDS = {
+    "float": "float",
+    "int": "int",
+    "bool": "bool",
+    "choice": "str",
+    "profile": "array",
+    "point": "array",
+}
 _KIND_TEXT = {
     "bool": "true or false",
     "int": "an integer",
@@ -408,30 +379,45 @@ _KIND_TEXT = {
     "array": "a number or an array of numbers",
 }
 
-_CHOICES = {
-    "lateral": LATERAL_CONDITIONS,
-    "dtype": DTYPES,
-    "p0_rule": P0_RULES,
-    "mcc_invariants": MCC_INVARIANTS,
-    "slab_fracture": SLAB_FRACTURE_MODELS,
-    "accumulation": SETUP_CHOICES["accumulation"],
-}
+
+def key_kind(cls: type, name: str) -> str:
+    """Expected TOML kind of a key of [params], [setup] (``cls``: its class, whose
+    declarations say) or [output]: bool, int, float, str, str? (a string, optional) or
+    array (a number or an array of numbers)."""
+    if cls is Output:
+        return {f.name: f.metadata["kind"] for f in dataclasses.fields(Output)}[name]
+    return _TOML_KINDS[specs(cls)[name].kind]
 
 
-def _valid_text(section: str, name: str, kind: str) -> str:
-    rules = PARAM_RULES if section == "params" else SETUP_RULES
-    text = _KIND_TEXT[kind]
-    if name in rules:
-        valid = rules[name][1]
-        if kind == "int" and valid.endswith(", integers"):
-            return "must be an integer in " + valid[: -len(", integers")]
-        return f"must be {text} in {valid}"
-    if name in _CHOICES and section == "setup":
-        return "must be one of {" + ", ".join(f'"{c}"' for c in _CHOICES[name]) + "}"
-    return f"must be {text}"
+def key_doc(cls: type, name: str) -> str:
+    """The meaning of a key of [params], [setup] or [output], as declared (with its unit
+    and, where None is allowed, what None means)."""
+    if cls is Output:
+        return {f.name: f.metadata["doc"] for f in dataclasses.fields(Output)}[name]
+    spec = specs(cls)[name]
+    unit = f" [{spec.unit}]" if spec.unit else ""
+    none = f"; None: {spec.optional}" if spec.optional else ""
+    return f"{spec.doc}{unit}{none}"
+
+
+def valid_words(cls: type, name: str) -> str:
+    """What a key's value must be, in TOML words: ``must be a number in (0, inf) m``,
+    ``must be an integer in [1, 64]``, ``must be one of {"free", "constrained"}``."""
+    kind = key_kind(cls, name)
+    spec = None if cls is Output else specs(cls)[name]
+    if spec is None or spec.valid is None or kind == "bool":
+        return f"must be {_KIND_TEXT[kind]}"
+    if spec.kind == "choice":
+        return "must be one of {" + ", ".join(f'"{c}"' for c in spec.valid) + "}"
+    if kind == "int" and isinstance(spec.valid, tuple):
+        return "must be one of {" + ", ".join(str(c) for c in spec.valid) + "}"
+    if kind == "int":
+        return f"must be an integer in {spec.valid_text}"
+    return f"must be {_KIND_TEXT[kind]} in {spec.valid_text}"
 
 
 def _is_number(v: Any) -> bool:
+    """A TOML number: an int or a float, not a bool."""
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
@@ -479,15 +465,14 @@ def _check_section(
     if not isinstance(table, dict):
         problems.append(f"{section} = {_fmt(table)}: must be a table ([{section}])")
         return values, bad, set()
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name for f in dataclasses.fields(cls) if f.init}
     for key, value in table.items():
         if key not in fields:
             problems.append(f"{section}.{key}: unknown key{_suggest(section, key)}")
             continue
-        kind = _kind_of(cls, fields[key])
-        ok, v = _convert(kind, value)
+        ok, v = _convert(key_kind(cls, key), value)
         if not ok:
-            reason = _valid_text(section, key, kind)
+            reason = valid_words(cls, key)
             if _is_number(value) and math.isnan(float(value)):
                 reason += ", not nan"
             problems.append(f"{section}.{key} = {_fmt(value)}: {reason}")
@@ -497,42 +482,31 @@ def _check_section(
     return values, bad, set(table)
 
 
-# 'poisson (--poisson) = ...', or a bare 'slope_profile = ...' (fields with no CLI flag)
-_LINE_RE = re.compile(
-    r"^(?:(?P<name>\w+) \(--[\w-]+\)|(?P<bare>" + "|".join(NO_CLI_FLAG) + r")(?= ))(?P<rest>.*)$"
-)
+def toml_name(field: str) -> str:
+    """A field as a scenario file names it: ``params.poisson``, ``setup.dx``."""
+    return ("params." if field in specs(PSTParams) else "setup.") + field
 
 
-def _retarget(lines: list[str], skip: set[str], given: dict[str, Any]) -> list[str]:
-    """Config problem lines ('poisson (--poisson) = ...') renamed to TOML keys, with the
-    value written as in TOML (``"sideways"``, not ``'sideways'``)."""
-    known = _known_keys()
-    out = []
-    for line in lines:
-        m = _LINE_RE.match(line)
-        if not m:
-            out.append(line)
-            continue
-        name, rest = m["name"] or m["bare"], m["rest"]
-        section = "setup" if name in known["setup"] else "params"
-        key = f"{section}.{name}"
-        if key in skip:
-            continue
-        if key in given:
-            value = given[key]
-            for text in {repr(value), repr(_as_float_or(value))}:
-                if rest.startswith(f" = {text}: "):
-                    rest = f" = {_fmt(value)}" + rest[len(f" = {text}") :]
-                    break
-        out.append(key + rest)
-    return out
-
-
-def _as_float_or(value: Any) -> Any:
+def _same(given: Any, value: Any) -> bool:
+    """Whether a checked value is the whole value given in the file (not one element)."""
+    if isinstance(given, (list, dict)) or isinstance(value, (list, tuple, np.ndarray)):
+        return False
     try:
-        return float(value)
+        return given == value or (math.isnan(float(given)) and math.isnan(float(value)))
     except (TypeError, ValueError):
-        return value
+        return False
+
+
+def toml_lines(problems: Iterable[Problem], given: dict[str, Any]) -> list[str]:
+    """Problems (`damjax.validation.Problem`) worded for a scenario file: keys as
+    ``params.poisson``, values as written in the file (``given``: the file's values by
+    field name, as read)."""
+
+    def show(field: str, value: Any) -> str:
+        written = given.get(field, value)
+        return _fmt(written if _same(written, value) else value)
+
+    return [p.text(toml_name, show) for p in problems]
 
 
 def _check(
@@ -565,66 +539,17 @@ def _check(
     if not isinstance(desc, str):
         problems.append(f"description = {_fmt(desc)}: must be a string")
 
+    if any(isinstance(data[k], dict) for k in data if k not in TOP_KEYS):
+        # a misspelt table ([param]): its values were not read, and checking the others
+        # against the defaults would report what follows from that (a default L_ss longer
+        # than the PST) as problems of their own
+        return None, problems, []
     check = _TYPES["slope"][0] if kind == "slope" else _TYPES["pst"][0]
     scn, notes = check(data, base_dir, problems)
     return (None, problems, []) if problems else (scn, [], notes)
 
 
 # --------------------------------------------------------------------------- writing
-
-
-def _plain(value: Any) -> Any:
-    """A parameter value as plain python (floats, lists of floats, str, bool, int)."""
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    arr = np.asarray(value)
-    if arr.dtype == bool:
-        return bool(arr) if arr.ndim == 0 else arr.tolist()
-    if np.issubdtype(arr.dtype, np.integer):
-        return int(arr) if arr.ndim == 0 else arr.tolist()
-    arr = arr.astype(float)
-    return float(arr) if arr.ndim == 0 else arr.tolist()
-
-
-def _toml_str(s: str) -> str:
-    out = ['"']
-    for ch in s:
-        if ch == '"':
-            out.append('\\"')
-        elif ch == "\\":
-            out.append("\\\\")
-        elif ch == "\n":
-            out.append("\\n")
-        elif ch == "\t":
-            out.append("\\t")
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04x}")
-        else:
-            out.append(ch)
-    out.append('"')
-    return "".join(out)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return _toml_str(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, np.ndarray) or np.isscalar(v):
-        return _toml_value(_plain(v))
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
 def dumps(data: Any) -> str:
@@ -634,10 +559,4 @@ def dumps(data: Any) -> str:
         return data.to_toml()
     if not isinstance(data, dict):
         raise TypeError(f"dumps: a scenario dict or Scenario, got {type(data).__name__}")
-    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
-    for k, v in data.items():
-        if isinstance(v, dict):
-            lines.append("")
-            lines.append(f"[{k}]")
-            lines += [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
-    return "\n".join(lines) + "\n"
+    return io.toml_dumps(data)

@@ -13,19 +13,13 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     tensile_strength = 4000.0   # are PST-only and ignored here; slope_deg is the angle
     softening = 1.0             # of a "plane" terrain, tau_peak the default strength
 
-    [setup]                     # fields of damjax.SlopeSetup
+    [setup]                     # fields of damjax.SlopeSetup, e.g.
     length = 50.0               # down-slope extent along the surface [m]
     width = 60.0                # cross-slope extent [m]
     dx = 0.2                    # grid spacing [m] (at most Lambda/2)
-    duration = 2.0              # simulated time [s]
     start = [15.0, 30.0]        # crack start (x, y) [m] (see strength.start_window)
-    cfl = 0.5                   # Courant number, (0, 1)
-    particles_per_cell = 1      # per cell and dimension, integer >= 1
-    dtype = "float32"           # "float32" or "float64"
-    chunk_steps = 100           # steps per jitted chunk (one animation frame each)
-    p0_rule = "paper"           # "paper" or "uniaxial"
-    slab_fracture = "paper"     # "paper" or "crack_band" (G_f, random sigma_t field)
-    seed = 0                    # picks the sigma_t field ("crack_band"), integer
+    # every field of [params] and [setup], with its unit, valid range, kind and default:
+    # `damjax.params` (the reference page "Scenario-file keys" is generated from it)
 
     [terrain]                   # optional (default: kind = "plane")
     kind = "plane"              # "plane": slope_deg [deg] (default params.slope_deg)
@@ -126,25 +120,28 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.constants import DTYPES, MCC_INVARIANTS, P0_RULES, SLAB_FRACTURE_MODELS
-from damjax.params import PSTParams, PSTSetup, SlopeSetup
+from damjax.params import PSTParams, PSTSetup, SlopeSetup, specs
+from damjax.scenario import slope_fields
 from damjax.scenario.schema import (
     MAX_PARTICLES,
     Output,
     Scenario,
     _check_section,
     _fmt,
-    _retarget,
+    _is_number,
     register,
+    toml_lines,
 )
 from damjax.scenario.slope_fields import (
     _GENERIC_DEFAULTS,
+    NATURAL_RELEASE_ADVICE,
     _FieldProblem,
     natural_release_problem,
     resolve_inputs,
 )
+from damjax.slope import simulation
 from damjax.slope.generic import window_problem
-from damjax.validation import MIN_CELLS, SETUP_CHOICES, SETUP_RULES, must_text, param_problems
+from damjax.validation import InputError, Problem
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
 STRENGTH_KINDS = ("constant", "grf", "map", "stability", "coulomb")
@@ -153,7 +150,7 @@ TRIGGERS = ("weakest", "random")
 UPSLOPE_AXES = ("+x", "-x", "+y", "-y")
 COVARIANCE_MODELS = ("gaussian", "exponential")
 # PSTParams fields with no meaning on a slope (a PST strength profile)
-PST_ONLY_PARAMS = ("steady_length", "strength_gradient", "strength_profile")
+PST_ONLY_PARAMS = tuple(name for name, spec in specs(PSTParams).items() if spec.pst_only)
 
 _POS = (lambda v: v > 0 and math.isfinite(v), "(0, inf)")
 _NONNEG = (lambda v: v >= 0 and math.isfinite(v), "[0, inf)")
@@ -252,10 +249,6 @@ _SNOW_COMMON = {
     "start_min_slope_deg": ("float", _ANGLE, "deg"),  # start zone's lower edge (28)
     "mask": ("str", None, ""),  # raster in the DEM's CRS: nonzero cells hold no snow
 }
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _check_table(
@@ -461,7 +454,7 @@ def check(
                 more = (
                     f" (did you mean 'setup.{hit[0]}'?)"
                     if hit
-                    else " (not a field of SlopeSetup; see the damjax.scenario.slope docstring)"
+                    else " (not a field of SlopeSetup; see damjax.params)"
                 )
             problems.append(f"setup.{key}: unknown key{more}")
         setup_table = clean
@@ -489,12 +482,6 @@ def check(
     _snow_strength_rules(terrain, strength, snow, base_dir, problems)
     if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
         _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes)
-    # params: ranges (damjax.validation's rules), retargeted to TOML keys
-    params = PSTParams(**pvals)
-    plines = param_problems(params, None)
-    given = {f"params.{k}": v for k, v in pvals.items()}
-    reported = {f"params.{k}" for k in pbad}
-    problems += _retarget(plines, reported, given)
     # given away from the default: a file written by `Scenario.to_toml` lists every field
     ignored = [
         k for k in PST_ONLY_PARAMS if k in pgiven and pvals.get(k) != getattr(PSTParams(), k)
@@ -504,90 +491,13 @@ def check(
             ", ".join(f"params.{k}" for k in ignored)
             + ": PST strength profile, ignored by slope scenarios (use [strength])"
         )
-    # setup: types done; ranges and choices
     if "start" in svals:
         st = np.asarray(svals["start"], dtype=float)
         if st.shape != (2,):
             problems.append(f"setup.start = {_fmt(data['setup']['start'])}: must be [x, y] in m")
-            sbad.add("start")
+            del svals["start"]
         else:
             svals["start"] = (float(st[0]), float(st[1]))
-    for key in (
-        "length",
-        "width",
-        "dx",
-        "duration",
-        "cfl",
-        "particles_per_cell",
-        "chunk_steps",
-        "seed",
-    ):
-        if key in svals and key not in sbad:
-            ok, valid = SETUP_RULES[key]
-            v = svals[key]
-            if not ok(float(v)):
-                problems.append(f"setup.{key} = {_fmt(v)}: {must_text(valid)}")
-                sbad.add(key)
-    for key, choices in (
-        ("dtype", DTYPES),
-        ("p0_rule", P0_RULES),
-        ("mcc_invariants", MCC_INVARIANTS),
-        ("slab_fracture", SLAB_FRACTURE_MODELS),
-        ("accumulation", SETUP_CHOICES["accumulation"]),
-    ):
-        if key in svals and key not in sbad and svals[key] not in choices:
-            valid = "{" + ", ".join(f'"{c}"' for c in choices) + "}"
-            problems.append(f"setup.{key} = {_fmt(svals[key])}: must be one of {valid}")
-            sbad.add(key)
-    if problems:
-        return None, []
-    setup = SlopeSetup(**svals)
-    for key in ("length", "width"):
-        if getattr(setup, key) / setup.dx < MIN_CELLS:
-            problems.append(
-                f"setup.{key} = {_fmt(getattr(setup, key))}: must be at least "
-                f"{MIN_CELLS} cells of setup.dx = {_fmt(setup.dx)}"
-            )
-    if problems:
-        return None, []
-    x0, y0 = setup.start
-    released = terrain is not None and "release" in terrain  # start: weakest inside
-    if (strength is None or "start_window" not in strength) and not released:
-        if not (0 <= x0 <= setup.length and 0 <= y0 <= setup.width):
-            given = "" if "start" in svals else " (the default: give setup.start)"
-            problems.append(
-                f"setup.start = {_fmt(list(setup.start))}{given}: must lie in "
-                f"[0, {setup.length:g}] x [0, {setup.width:g}] m (the release area), or give "
-                "strength.start_window"
-            )
-    elif strength is not None and "start_window" in strength:
-        win = strength["start_window"]
-        problem = window_problem(win, setup.length, setup.width)
-        if problem:
-            problems.append(f"strength.start_window = {_fmt(win)}: {problem}")
-    lam = float(theory.elastic_length(params))
-    if setup.dx > lam / 2:
-        problems.append(
-            f"setup.dx = {_fmt(setup.dx)}: must be at most Lambda/2 = {lam / 2:.4g} m "
-            f"(Lambda = {lam:.4g} m, the weak-layer elastic length, must be resolved)"
-        )
-    ppc = setup.particles_per_cell
-    n = max(1.0, setup.length / setup.dx) * max(1.0, setup.width / setup.dx) * ppc * ppc
-    if n > MAX_PARTICLES:
-        problems.append(
-            f"setup.dx = {_fmt(setup.dx)}: with setup.length = {setup.length:g}, setup.width "
-            f"= {setup.width:g} and setup.particles_per_cell = {ppc} the run has {n:.3g} "
-            f"particles: must be at most {MAX_PARTICLES:.0e}"
-        )
-    if terrain is not None and terrain["kind"] == "generic":
-        t = {**_GENERIC_DEFAULTS, **terrain}
-        # the rule of damjax.terrain.profile_problem, quoting the values as written
-        if t["toe_length"] + t["roll_length"] > setup.length:
-            problems.append(
-                f"terrain.toe_length = {_fmt(t['toe_length'])}: toe_length + roll_length = "
-                f"{t['toe_length'] + t['roll_length']:g} m must be at most setup.length = "
-                f"{setup.length:g} m"
-            )
     if terrain is not None and terrain["kind"] == "dem":
         if "file" not in terrain:
             problems.append("terrain.file: missing (a DEM: .asc, .nc or .tif)")
@@ -598,12 +508,10 @@ def check(
             problems.append("strength.file: missing (a strength map: .csv, .nc or .tif)")
         else:
             strength["file"] = str(_resolve_path(strength["file"], base_dir))
-    if problems:
-        return None, []
     scn = Scenario(
         name=data.get("name"),
-        params=params,
-        setup=setup,
+        params=PSTParams(**pvals),
+        setup=SlopeSetup(**svals),
         description=data.get("description", ""),
         output=Output(**ovals),
         type="slope",
@@ -611,47 +519,116 @@ def check(
         strength=strength,
         snow=snow,
     )
-    # read the files and check the fields (before anything compiles)
+    given = {**pvals, **svals}
+    n0 = len(problems)
+
+    def fields(setup: SlopeSetup) -> Any:
+        """The fields on the checked grid, once the tables are (else `_Unread`)."""
+        if n0 or terrain is None or strength is None:
+            raise _Unread
+        _grid_problems(terrain, strength, setup)
+        # the natural release is checked on the prepared run (its particles' load ratio)
+        return resolve_inputs(dataclasses.replace(scn, setup=setup), natural_release=False)
+
     try:
-        inp = resolve_inputs(scn)
+        prep = simulation.prepare(scn.params, scn.setup, fields=fields, max_particles=MAX_PARTICLES)
+    except _Unread:
+        return None, []
     except _FieldProblem as exc:
         problems.append(str(exc))
         return None, []
-    slope, start = inp.slope_deg, inp.start
-    if not np.all(np.isfinite(slope)) or np.min(slope) <= 0 or np.max(slope) >= 90:
-        where = "terrain" if terrain and terrain["kind"] != "plane" else "params.slope_deg"
-        problems.append(
-            f"{where}: local slope angles from {np.nanmin(slope):.3g} to "
-            f"{np.nanmax(slope):.3g} deg: must all be in (0, 90) deg"
-        )
+    except InputError as exc:
+        bad = pbad | sbad  # their kind was reported: the checks saw the default
+        reported = [p for p in exc.problems if p.field not in bad]
+        problems += _lines(reported, given, terrain or {"kind": "plane"}, "start" in svals)
         return None, []
-    if inp.thickness is not None:  # the thinnest slab sets the elastic length
-        thin = float(np.min(inp.thickness if inp.cover is None else inp.thickness[inp.cover]))
-        lam = float(theory.elastic_length(dataclasses.replace(params, thickness=thin)))
-        if setup.dx > lam / 2:
-            problems.append(
-                f"setup.dx = {_fmt(setup.dx)}: must be at most Lambda/2 = {lam / 2:.4g} m "
-                f"at the thinnest slab, {thin:.3g} m (snow.min_thickness: no slab thinner)"
-            )
-            return None, []
-    problem = natural_release_problem(scn, inp, advice=False)
-    if problem:  # strength.natural_release = true (resolve_inputs refuses it otherwise)
+    if problems:
+        return None, []
+    # a weak layer that fails under its own slab outside the trigger: a natural release
+    problem = natural_release_problem(prep.setup, prep.load_ratio, prep.cover, prep.source)
+    if problem and not strength.get("natural_release", False):
+        problems.append(problem + NATURAL_RELEASE_ADVICE)
+        return None, []
+    if problem:
         notes.append(f"{problem} (strength.natural_release = true: run as a natural release)")
-    if "start" in svals and strength is not None and "start_window" in strength:
+    object.__setattr__(scn, "_prepared", prep)
+    if "start" in svals and "start_window" in strength:
+        start = prep.setup.start
         notes.append(
-            f"setup.start = {_fmt(list(setup.start))} is not used: strength.start_window "
+            f"setup.start = {_fmt(list(scn.setup.start))} is not used: strength.start_window "
             f"picks the start, ({start[0]:.4g}, {start[1]:.4g}) m"
         )
     return scn, notes
 
 
+class _Unread(Exception):
+    """The terrain and strength are not read: the tables have problems already."""
+
+
+def _grid_problems(terrain: dict, strength: dict, setup: SlopeSetup) -> None:
+    """_FieldProblem for the tables' values that do not fit the (valid) release area: the
+    start window, the generic profile's lengths."""
+    if "start_window" in strength:
+        win = strength["start_window"]
+        problem = window_problem(win, setup.length, setup.width)
+        if problem:
+            raise _FieldProblem(f"strength.start_window = {_fmt(win)}: {problem}")
+    if terrain["kind"] == "generic":
+        t = {**_GENERIC_DEFAULTS, **terrain}
+        # the rule of damjax.terrain.profile_problem, quoting the values as written
+        if t["toe_length"] + t["roll_length"] > setup.length:
+            raise _FieldProblem(
+                f"terrain.toe_length = {_fmt(t['toe_length'])}: toe_length + roll_length = "
+                f"{t['toe_length'] + t['roll_length']:g} m must be at most setup.length = "
+                f"{setup.length:g} m"
+            )
+
+
+def _lines(
+    problems: list[Problem], given: dict[str, Any], terrain: dict, start_given: bool
+) -> list[str]:
+    """The problems of `damjax.slope.simulation.prepare` worded with the file's keys (the
+    slope-angle map as the terrain's, the start with the ways to give it)."""
+    out = []
+    for p in problems:
+        if p.form == "map" and p.field == "slope_deg":
+            where = "terrain" if terrain["kind"] != "plane" else "params.slope_deg"
+            lo, hi = p.value
+            out.append(
+                f"{where}: local slope angles from {lo:.3g} to {hi:.3g} deg: must all be in "
+                "(0, 90) deg"
+            )
+            continue
+        choices = specs(SlopeSetup).get(p.field or "")
+        if choices is not None and choices.kind == "choice" and p.valid:
+            valid = "{" + ", ".join(f'"{c}"' for c in choices.valid) + "}"
+            value = given.get(p.field, p.value)
+            out.append(f"setup.{p.field} = {_fmt(value)}: must be one of {valid}")
+            continue
+        if p.field == "start" and not start_given:
+            p = dataclasses.replace(p, what="(the default: give setup.start)")
+        line = toml_lines([p], given)[0]
+        if p.field == "start":
+            line += ", or give strength.start_window"
+        out.append(line)
+    return out
+
+
 def warn_resolution(scn: Any) -> None:
-    """UserWarning (as `damjax.validation.validate` gives PSTs) when dx > Lambda/5."""
+    """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5, with how to
+    check it (half the dx, the same random field). A weak layer that fails under its own
+    slab is the loader's (`natural_release_problem`)."""
     lam = float(theory.elastic_length(scn.params))
     if scn.setup.dx > lam / 5:
+        # the shipped slopes run at dx 0.2 m (Lambda/5 = 0.133 m): the guide's "Grid
+        # resolution" section gives what halving dx changed for them
+        grf = (scn.strength or {}).get("kind") == "grf"
+        same = f" and strength.field_dx = {scn.setup.dx:g}, the same field," if grf else ""
         warnings.warn(
             f"dx = {scn.setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip "
-            "stress concentration is under-resolved; results may depend on dx",
+            "stress concentration is under-resolved; results may depend on dx (check with "
+            f"dx = {scn.setup.dx / 2:g} m{same} as the docs' Slopes page did for the "
+            "shipped slopes)",
             stacklevel=3,
         )
 
@@ -683,4 +660,4 @@ def _snow_strength_rules(
             )
 
 
-register("slope", check, warn_resolution)
+register("slope", check, warn_resolution, slope_fields.prepare)

@@ -1,7 +1,8 @@
 """Slope scenarios resolved to fields: the slope angle, fall-line direction and strength
 [deg, deg, Pa] at the cell centres of the release area, from a plane, the generic slope
-or a DEM and from a constant, a Gaussian random field or a strength map; and `simulate`,
-the run of a validated slope scenario (`damjax.simulate_slope`).
+or a DEM and from a constant, a Gaussian random field or a strength map; `prepare`, the
+checked run of a slope scenario (`damjax.slope.simulation.prepare` on these fields), and
+`simulate`, its run.
 """
 
 from __future__ import annotations
@@ -15,9 +16,10 @@ import numpy as np
 
 from damjax import snow_cover
 from damjax.constants import G_ACC
-from damjax.scenario.schema import _fmt
+from damjax.scenario.schema import _fmt, prepared
+from damjax.slope import simulation
 from damjax.slope.generic import GenericSlopeCase, weak_spot
-from damjax.slope.simulation import SlopeRunWarning, simulate_slope
+from damjax.slope.simulation import SlopeRunWarning
 
 _GENERIC_DEFAULTS = {
     "max_slope_deg": 35.0,
@@ -251,29 +253,26 @@ def resolve_fields(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]
     return inp.slope_deg, inp.fall_deg, inp.tau_peak, inp.start
 
 
-_CACHE: dict[str, SlopeInputs] = {}
-
-
-def resolve_inputs(scn: Any) -> SlopeInputs:
+def resolve_inputs(scn: Any, natural_release: bool = True) -> SlopeInputs:
     """Every input a slope scenario gives `damjax.simulate_slope` (`SlopeInputs`): the
-    terrain, snow cover and weak-layer fields and the crack start, checked.
+    terrain, snow cover and weak-layer fields and the crack start, read on its grid.
 
-    Raises a one-line ValueError for unreadable files, and, unless
-    ``strength.natural_release`` is true, when the weak layer of a snow-covered cell
-    outside the trigger fails under its own slab at t = 0 (`natural_release_problem`).
-    The last two scenarios resolved are kept (the loader, the warnings and the run
-    resolve the same scenario; a large DEM domain takes seconds).
+    Raises a one-line ValueError for unreadable files, and, with ``natural_release``
+    (the default) unless ``strength.natural_release`` is true, when the weak layer of a
+    snow-covered particle outside the trigger fails under its own slab at t = 0
+    (`natural_release_problem`). A scenario's loader reads its inputs once, with
+    ``natural_release = False``, and checks that on the prepared run
+    (`damjax.slope.simulation.PreparedSlope.load_ratio`).
     """
-    key = scn.to_toml()
-    if key in _CACHE:
-        return _CACHE[key]
     inp = _resolve(scn)
-    problem = natural_release_problem(scn, inp)
-    if problem and not (scn.strength or {}).get("natural_release", False):
-        raise _FieldProblem(problem)
-    if len(_CACHE) >= 2:
-        _CACHE.pop(next(iter(_CACHE)))
-    _CACHE[key] = inp
+    if natural_release and not (scn.strength or {}).get("natural_release", False):
+        setup = dataclasses.replace(scn.setup, start=inp.start)
+        ratio = simulation.load_ratio(
+            scn.params, setup, inp.slope_deg, inp.tau_peak, inp.fall_deg, **inp.snow_kwargs()
+        )
+        problem = natural_release_problem(setup, ratio, inp.cover, inp)
+        if problem:
+            raise _FieldProblem(problem + NATURAL_RELEASE_ADVICE)
     return inp
 
 
@@ -574,55 +573,49 @@ def cell_shape(setup: Any) -> tuple[int, int]:
 TRIGGER_RADIUS = 2.0  # [m] the trigger: cells within it of the start may fail at t = 0
 
 
-def natural_release_problem(scn: Any, inp: SlopeInputs, advice: bool = True) -> str | None:
-    """One line when the weak layer of a snow-covered particle farther than
-    `TRIGGER_RADIUS` from the crack start fails under its own slab at t = 0 (tau_p <= rho
-    g h0 sin psi, in the model's own values at the particles): how many cells, the area,
-    their extent and the worst one (map coordinates on a DEM). Such a weak layer did not
-    hold its slab until the trigger: the run would release the slope from every such
-    cell at once (a natural release). None when there is none."""
-    from damjax.core.model import slope_particle_fields, slope_particles
+NATURAL_RELEASE_ADVICE = (
+    ": a natural release, not a triggered one; make the weak layer hold its slab "
+    '(strength.kind = "stability"), or set strength.natural_release = true to run it'
+)
 
-    setup = scn.setup
-    _, _, xp, yp = slope_particles(setup, cover=inp.cover)
-    pf = slope_particle_fields(
-        scn.params,
-        dataclasses.replace(setup, dtype="float32"),
-        xp,
-        yp,
-        inp.slope_deg,
-        inp.tau_peak,
-        inp.fall_deg,
-        **{k: v for k, v in inp.snow_kwargs().items() if k != "cover"},
-    )
-    tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
-    tau_g = np.broadcast_to(tau_g, tau_p.shape)
-    far = np.hypot(xp - inp.start[0], yp - inp.start[1]) > TRIGGER_RADIUS
-    fails = far & (tau_p <= tau_g)
+
+def natural_release_problem(
+    setup: Any, ratio: np.ndarray, cover: Any = None, inputs: Any = None
+) -> str | None:
+    """One line when the weak layer of a snow-covered particle farther than
+    `TRIGGER_RADIUS` from the crack start (``setup.start``) fails under its own slab at
+    t = 0: ``ratio``, each particle's tau_p / tau_g in the model's own values
+    (`damjax.slope.simulation.load_ratio`, particles of
+    `damjax.core.model.slope_particles` on ``cover``), at most 1. The line gives how many
+    cells, the area, their extent and the worst one (map coordinates on a DEM, from the
+    `SlopeInputs` ``inputs``). Such a weak layer did not hold its slab until the trigger:
+    the run would release the slope from every such cell at once (a natural release).
+    None when there is none (and for traced runs, ``ratio`` None)."""
+    from damjax.core.model import slope_particles
+
+    if ratio is None:
+        return None
+    _, _, xp, yp = slope_particles(setup, cover=cover)
+    far = np.hypot(xp - setup.start[0], yp - setup.start[1]) > TRIGGER_RADIUS
+    fails = far & (np.asarray(ratio) <= 1.0)
     if not fails.any():
         return None
     dx = setup.dx
     cells = np.unique(np.floor(xp[fails] / dx).astype(int) * 10**7 + np.floor(yp[fails] / dx))
-    ratio = np.where(fails, tau_p / np.maximum(tau_g, 1e-300), np.inf)
-    k = int(np.argmin(ratio))
+    worst_ratio = np.where(fails, ratio, np.inf)
+    k = int(np.argmin(worst_ratio))
     worst = f"x = {xp[k]:.1f} m, y = {yp[k]:.1f} m"
-    m = inp.to_map(float(xp[k]), float(yp[k]))
+    m = None if inputs is None else inputs.to_map(float(xp[k]), float(yp[k]))
     if m is not None:
         worst += f" (map {m[0]:.1f}, {m[1]:.1f})"
     box = (
         f"x {xp[fails].min():.1f}-{xp[fails].max():.1f} m, "
         f"y {yp[fails].min():.1f}-{yp[fails].max():.1f} m"
     )
-    line = (
+    return (
         f"strength: the weak layer fails under its own slab at t = 0 (tau_p <= rho g h sin "
         f"psi) on {cells.size} snow-covered cells ({cells.size * dx * dx:.4g} m^2) outside "
-        f"the trigger, {box}, worst tau_p / tau_g = {ratio[k]:.3g} at {worst}"
-    )
-    if not advice:
-        return line
-    return (
-        f"{line}: a natural release, not a triggered one; make the weak layer hold its slab "
-        '(strength.kind = "stability"), or set strength.natural_release = true to run it'
+        f"the trigger, {box}, worst tau_p / tau_g = {worst_ratio[k]:.3g} at {worst}"
     )
 
 
@@ -684,36 +677,51 @@ def random_trigger(scn: Any, zone: np.ndarray, x: np.ndarray, y: np.ndarray) -> 
     return float(x[i[c]]), float(y[j[c]])
 
 
+def prepare(scn: Any) -> simulation.PreparedSlope:
+    """`damjax.slope.simulation.prepare` of a slope scenario: its inputs read
+    (`resolve_inputs`) once the parameters and the grid are checked, and the weak layer
+    checked for a natural release (`natural_release_problem`; ValueError unless
+    ``strength.natural_release`` is true)."""
+    prep = simulation.prepare(
+        scn.params,
+        scn.setup,
+        fields=lambda setup: resolve_inputs(
+            dataclasses.replace(scn, setup=setup), natural_release=False
+        ),
+    )
+    problem = natural_release_problem(prep.setup, prep.load_ratio, prep.cover, prep.source)
+    if problem and not (scn.strength or {}).get("natural_release", False):
+        raise ValueError(problem + NATURAL_RELEASE_ADVICE)
+    return prep
+
+
 def simulate(scn: Any, progress: bool = False, **resume: Any) -> Any:
-    """Run a slope scenario: `simulate_slope` on the resolved fields (`SlopeResult`).
+    """Run a slope scenario: its checked run (`damjax.scenario.prepared`: the fields read
+    and checked when the scenario was) integrated by `damjax.slope.simulation.run`
+    (`SlopeResult`).
 
     ``resume``: `simulate_slope`'s state, start_chunk, history and callback (checkpoints).
-    The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]),
-    ``start_m`` and ``start_slope_deg``.
+    The summary gains ``upslope_arrest_position_m`` (from the lower edge [m]; None
+    where the up-slope front did not arrest), ``start_m`` and ``start_slope_deg``.
     """
-    inp = resolve_inputs(scn)
-    slope, fall, tau, start = inp.slope_deg, inp.fall_deg, inp.tau_peak, inp.start
-    setup = dataclasses.replace(scn.setup, start=start)
+    prep = prepared(scn)
+    setup, slope, start = prep.setup, prep.slope_deg, prep.setup.start
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         warnings.simplefilter("default", SlopeRunWarning)  # matched first: passed on
-        res = simulate_slope(
-            scn.params,
-            setup,
-            slope_deg=slope,
-            tau_peak=tau,
-            fall_deg=fall,
-            progress=progress,
-            **inp.run_kwargs(),
-            **resume,
-        )
+        for note in prep.notes:
+            if note.category == "slope":
+                warnings.warn(note.text(), SlopeRunWarning, stacklevel=2)
+        res = simulation.run(prep, progress=progress, **resume)
     s = res.summary
-    s["upslope_arrest_position_m"] = start[0] + s["upslope_arrest_distance_m"]
+    # from the lower edge, where the up-slope front arrested (None otherwise)
+    d = s["upslope_arrest_distance_m"]
+    s["upslope_arrest_position_m"] = None if d is None else start[0] + d
     s["start_m"] = [start[0], start[1]]
     i = min(int(start[0] / setup.dx), np.shape(slope)[0] - 1)
     j = min(int(start[1] / setup.dx), np.shape(slope)[1] - 1)
     s["start_slope_deg"] = float(np.asarray(slope)[i, j])
-    m = inp.to_map(start[0], start[1])
+    m = None if prep.source is None else prep.source.to_map(start[0], start[1])
     if m is not None:
         s["start_map_m"] = [m[0], m[1]]
     return res

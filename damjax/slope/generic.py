@@ -16,7 +16,7 @@ PST sawing procedure) and the choices the paper leaves open, each stated here:
   friction angle (27 deg; below it friction holds a released slab and no shear crack runs;
   30 deg is also the usual lower bound of potential release areas) and the roll can take
   only the top ~10 m. The toe and roll lengths and the end angles remain our choice; the
-  arrest follows the roll (`benchmarks.slope_acceptance` reports the sensitivity);
+  arrest follows the roll (`verification.slope_acceptance` reports the sensitivity);
 - strength: expected tau_p = 1000 Pa (the PSTs' tau_p on L_ss, where their crack starts)
   up to the bottom of the start window (x = 2 m, `mean_at`), rising `trend` = 20 Pa/m
   up-slope above it (the PSTs' arrangement: constant strength where the crack starts,
@@ -278,7 +278,8 @@ def run_generic_slope(
 ) -> SlopeResult:
     """Run a Fig. 12-type release; the summary gains the case description and
     ``upslope_arrest_position_m`` (highest released point on the start's up-slope band,
-    from the lower edge, along the surface [m]), ``start_m`` and ``start_slope_deg``."""
+    from the lower edge, along the surface [m]; None where the up-slope front did not
+    arrest), ``start_m`` and ``start_slope_deg``."""
     case = GenericSlopeCase() if case is None else case
     params = fig12_params() if params is None else params
     psi = slope_field(case)
@@ -288,7 +289,9 @@ def run_generic_slope(
         params, setup_of(case, start), slope_deg=psi, tau_peak=tau, progress=progress
     )
     s = res.summary
-    s["upslope_arrest_position_m"] = start[0] + s["upslope_arrest_distance_m"]
+    # from the lower edge, where the up-slope front arrested (None otherwise)
+    d = s["upslope_arrest_distance_m"]
+    s["upslope_arrest_position_m"] = None if d is None else start[0] + d
     s["start_m"] = [start[0], start[1]]
     # front_quiet_at_end and last_upslope_failure_time_s: `simulate_slope`'s summary
     at = res.arrival_time[np.isfinite(res.arrival_time)]

@@ -36,18 +36,32 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     SlopeLayout,
     build_slope,
     make_slope_layout,
+    slope_particle_fields,
+    slope_particles,
+    uniform_value,
 )
-from damjax.core.state import FAULT_MESSAGES, FRACTURE_OPENING, Model, State, raise_on_fault
-from damjax.core.step import band_opening, column_height, fracture_opening, fracture_strain
-from damjax.diagnostics import ARREST_QUIET, weak_layer_damage
+from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
+from damjax.core.step import column_height
+from damjax.diagnostics import ARREST_MARGIN, ARREST_QUIET, weak_layer_damage
+from damjax.materials.slab_fracture import (
+    FRACTURE_OPENING,
+    band_opening,
+    fracture_opening,
+    fracture_strain,
+)
 from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import (
+    InputError,
+    Problem,
+    concrete_only,
     ensure_x64,
     expect_types,
     partial_cells,
+    raise_if,
     require_x64,
+    size_problem,
+    slope_field_problems,
     slope_problems,
-    snow_problems,
 )
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
@@ -78,8 +92,11 @@ class SlopeResult:
         slope_deg: (nx, ny) local slope angle psi [deg].
         snapshots: per chunk: ``time`` [s], the height map [m] and the broken map (0/1).
         summary: diagnostics by name, units in the key (``release_area_m2``,
-            ``upslope_arrest_distance_m``, ``wall_time_s``, ...). ``release_area_m2``
-            counts every failed cell, the saw's cut included (``sawn_area_m2``); where
+            ``upslope_extent_m``, ``wall_time_s``, ...); the slopes guide's "The summary"
+            explains every key. ``upslope_front`` and ``crossslope_front`` say what the
+            fronts did ("arrested", "reached_edge", "moving", "sawn_only"); the arrest
+            distances are None unless that front arrested. ``release_area_m2`` counts
+            every failed cell, the saw's cut included (``sawn_area_m2``); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
             release is the cut (a warning says so). ``initial_failure_area_m2``: the
             weak layer failing under the slab's own weight at t = 0 (tau_p <= rho g h0
@@ -425,6 +442,45 @@ def _ratio_or_none(v: float, cs: float) -> float | None:
     return v / cs if math.isfinite(v) else None
 
 
+# states of a front in the summary (``upslope_front``, ``crossslope_front``)
+FRONT_STATES = ("arrested", "reached_edge", "moving", "sawn_only")
+
+
+def _front_state(
+    dist: np.ndarray, t_b: np.ndarray, edge: float, t_end: float, dx: float
+) -> tuple[str, float | None]:
+    """(state, speed at the end [m/s] or None) of the release's outline in one direction.
+
+    ``dist``: each particle's distance from the start in that direction [m]; ``edge``:
+    the area's edge in it [m]. The outline is the failed particle farthest from the start
+    over the whole map. As a PST's tip (`damjax.diagnostics.arrest`): "reached_edge" when
+    the outline lies within `ARREST_MARGIN` (2 m) of the edge, "moving" when it advanced by
+    more than one cell in the last `ARREST_QUIET` s (the speed is that advance over
+    `ARREST_QUIET`), "arrested" otherwise. Failures behind the outline (the released slab
+    loading its toe, say) move no outline.
+    """
+    failed = np.isfinite(t_b)
+    if not failed.any():
+        return "sawn_only", None
+    now = float(np.max(dist[failed]))
+    if edge - now < ARREST_MARGIN:
+        return "reached_edge", None
+    early = failed & (t_b <= t_end - ARREST_QUIET + 1e-9)
+    before = float(np.max(dist[early])) if early.any() else -math.inf
+    if now - before > dx * (1.0 + 1e-6):
+        return "moving", (now - before) / ARREST_QUIET if math.isfinite(before) else None
+    return "arrested", None
+
+
+def _crossslope_state(states: list[str]) -> str:
+    """One state for both sides: moving if either side moves, else arrested if either side
+    arrested (the other reached its edge), else the common state."""
+    for state in ("sawn_only", "moving", "arrested"):
+        if state in states:
+            return state
+    return "reached_edge"
+
+
 RELEASE_DAMAGE_WIDTH = 0.5  # relative width w of the smooth damage ramp (see particle_damage)
 
 
@@ -516,6 +572,129 @@ def simulate_slope(
     Slab that slides over the grid's edge leaves the run (outflow, counted in the
     summary) instead of stopping it.
     """
+    snow = dict(thickness=thickness, cover=cover, stability=stability, wl_friction=wl_friction)
+    traced = is_traced((params, slope_deg, tau_peak, fall_deg, snow))
+    resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
+    concrete_only("simulate_slope", traced, progress, resume)
+    prep = prepare(
+        params,
+        setup,
+        slope_deg=slope_deg,
+        tau_peak=tau_peak,
+        fall_deg=fall_deg,
+        layout=layout,
+        domain=domain,
+        **snow,
+    )
+    for note in prep.notes:
+        category = SlopeRunWarning if note.category == "slope" else UserWarning
+        warnings.warn(note.text(), category, stacklevel=2)
+    if traced:
+        return _simulate_slope_traced(prep)
+    return run(prep, progress=progress, **resume)
+
+
+@dataclasses.dataclass(frozen=True)
+class PreparedSlope:
+    """A slope run checked once, at the edge (`prepare`): what `run` integrates.
+
+    Attributes:
+        params: the parameters.
+        setup: the setup (with the start a scenario's ``fields`` gave).
+        slope_deg, tau_peak, fall_deg: the maps (or scalars) [deg, Pa, deg].
+        layout: the static layout (grid, step count, slab law).
+        notes: the warnings of the input, not yet warned (`damjax.validation.Problem`s;
+            category "slope": a `SlopeRunWarning`, "overloaded": the strength at or below
+            the slab's weight, with the share of the snow-covered area as ``value``).
+        thickness, cover, stability, wl_friction, domain: the snow cover and the weak
+            layer's own load (`simulate_slope`'s; None: not given).
+        load_ratio: (n,) tau_p / tau_g of each particle at t = 0 (at most 1: its weak layer
+            fails under its own slab), in the order of
+            `damjax.core.model.slope_particles`; None for traced inputs.
+        source: what ``fields`` returned (a scenario's
+            `damjax.scenario.slope_fields.SlopeInputs`: map coordinates, start zone), else
+            None.
+    """
+
+    params: PSTParams
+    setup: SlopeSetup
+    slope_deg: Any
+    tau_peak: Any
+    fall_deg: Any
+    layout: SlopeLayout
+    notes: tuple[Problem, ...] = ()
+    thickness: Any = None
+    cover: Any = None
+    stability: Any = None
+    wl_friction: Any = None
+    domain: Any = None
+    load_ratio: Any = None
+    source: Any = None
+
+    def snow(self) -> dict[str, Any]:
+        """`damjax.core.model.build_slope`'s snow and weak-layer keywords."""
+        return dict(
+            thickness=self.thickness,
+            cover=self.cover,
+            stability=self.stability,
+            wl_friction=self.wl_friction,
+        )
+
+
+def build(prep: PreparedSlope, layout: SlopeLayout | None = None) -> tuple[Model, State, Any, Any]:
+    """Model, initial state and particle positions (x, y) [m] of a prepared run
+    (`damjax.core.model.build_slope` on its maps and snow cover; ``layout``: default the
+    prepared one)."""
+    return build_slope(
+        prep.params,
+        prep.setup,
+        prep.layout if layout is None else layout,
+        prep.slope_deg,
+        prep.tau_peak,
+        prep.fall_deg,
+        **prep.snow(),
+    )
+
+
+def prepare(
+    params: PSTParams,
+    setup: SlopeSetup | None = None,
+    *,
+    slope_deg: Any = None,
+    tau_peak: Any = None,
+    fall_deg: Any = 0.0,
+    layout: SlopeLayout | None = None,
+    fields: Any = None,
+    max_particles: int | None = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
+) -> PreparedSlope:
+    """Check a slope run's input once and make its layout: the types, every value (those
+    JAX holds behind traced inputs under `jax.grad` and `jax.vmap`, member by member; inside
+    `jax.jit` none), the start and the maps, the 64-bit switch, the layout and the run's
+    size. `damjax.validation.InputError` (a ValueError, one line per problem) on invalid
+    input.
+
+    Args:
+        params: slab and weak-layer parameters.
+        setup: geometry and numerics (default: `SlopeSetup()`).
+        slope_deg: local slope angle [deg], scalar or (nx, ny) (default params.slope_deg).
+        tau_peak: weak-layer strength [Pa], scalar or (nx, ny) (default params.tau_peak).
+        fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny).
+        layout: static layout (`damjax.core.model.make_slope_layout`); default: made
+            from the inputs.
+        fields: instead of the maps, ``fields(setup) -> (slope_deg, fall_deg, tau_peak,
+            start)``, or an object with these attributes and those of the snow cover
+            (``thickness``, ``cover``, ``stability``, ``wl_friction``, ``domain``; kept
+            as `PreparedSlope.source`), called once the parameters and the grid are valid
+            (a scenario's terrain, snow and strength tables, read on the grid).
+        max_particles: the most particles a run may have (scenario files).
+        thickness, cover, stability, wl_friction, domain: the snow cover and the weak
+            layer's own load (`simulate_slope`).
+    """
     setup = SlopeSetup() if setup is None else setup
     expect_types(
         "simulate_slope",
@@ -525,37 +704,172 @@ def simulate_slope(
     )
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
-    snow = {"thickness": thickness, "cover": cover, "stability": stability}
-    snow["wl_friction"] = wl_friction
+    snow = dict(thickness=thickness, cover=cover, stability=stability, wl_friction=wl_friction)
     inputs = (params, slope_deg, tau_peak, fall_deg, snow)
     if is_traced(inputs):
-        if progress or state is not None or start_chunk or history or callback is not None:
+        require_x64(setup.dtype)
+        if is_traced((cover, domain)):
             raise TypeError(
-                "simulate_slope: progress, resume (state, start_chunk, history) and callback "
-                "need concrete inputs; inside jax.grad/jit/vmap call it without them"
+                "simulate_slope: cover and domain (bool maps of cells: cover fixes which "
+                "particles exist) must be concrete arrays, not traced"
             )
-        return _simulate_slope_traced(params, setup, slope_deg, tau_peak, fall_deg, layout, snow)
-    problems = slope_problems(params, setup, slope_deg, tau_peak, fall_deg)
-    problems += snow_problems(setup, **snow, domain=domain)
-    if problems:
-        raise ValueError("\n".join(problems))
-    for note in _slope_notes(params, setup, slope_deg, fall_deg):
-        warnings.warn(note, SlopeRunWarning, stacklevel=2)
-    ensure_x64(setup.dtype)
-    if layout is None:
-        layout = make_slope_layout(params, setup, steepest_covered(slope_deg, cover))
-    model, state0, xp, yp = build_slope(
-        params, setup, layout, slope_deg, tau_peak, fall_deg, **snow
-    )
-    # (a scenario's loader says this itself: a plain UserWarning, which scenario runs drop)
-    fails0 = np.asarray(initial_failures(model))
-    if fails0.any():
-        warnings.warn(
-            f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
-            f"{100 * fails0.mean():.3g} % of the area: the weak layer fails there "
-            "under the slab's weight at once (a strength map in kPa instead of Pa?)",
-            stacklevel=2,
+        # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
+        members = concrete_members(inputs)
+        for m in members or ():
+            raise_if(slope_problems(m[0], setup, *m[1:4], **m[4], domain=domain))
+        if layout is None:
+            if members is None:
+                layout = _layout_from_known(params, setup, slope_deg, cover)
+            else:
+                layout = _batch_layout(members, setup, cover)
+            _check_size(layout, setup, max_particles, cover)
+        return PreparedSlope(
+            params, setup, slope_deg, tau_peak, fall_deg, layout, domain=domain, **snow
         )
+    source = None
+    if fields is None:
+        raise_if(
+            slope_problems(params, setup, slope_deg, tau_peak, fall_deg, **snow, domain=domain)
+        )
+    else:  # the maps read once the parameters and the grid are valid
+        raise_if(slope_problems(params, setup))
+        source = fields(setup)
+        if isinstance(source, tuple):
+            slope_deg, fall_deg, tau_peak, start = source
+            source = None
+        else:
+            slope_deg, fall_deg = source.slope_deg, source.fall_deg
+            tau_peak, start = source.tau_peak, source.start
+            snow = {k: getattr(source, k, None) for k in snow}
+            domain = getattr(source, "domain", None)
+        setup = dataclasses.replace(setup, start=start)
+        raise_if(
+            slope_field_problems(
+                setup, slope_deg, tau_peak, fall_deg, params=params, **snow, domain=domain
+            )
+        )
+    notes = [
+        Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
+        for note in _slope_notes(params, setup, slope_deg, fall_deg)
+    ]
+    if layout is None:
+        layout = make_slope_layout(params, setup, steepest_covered(slope_deg, snow["cover"]))
+        _check_size(layout, setup, max_particles, snow["cover"])
+    # (the run's size checked first: the load ratio is an array over its particles)
+    ensure_x64(setup.dtype)
+    ratio = load_ratio(params, setup, slope_deg, tau_peak, fall_deg, **snow)
+    frac = float(np.mean(ratio <= 1.0)) if ratio.size else 0.0
+    if frac > 0:
+        notes.append(
+            Problem(
+                None,
+                frac,
+                f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
+                f"{100 * frac:.3g} % of the area: the weak layer fails there under the "
+                "slab's weight at once (a strength map in kPa instead of Pa?)",
+                form="line",
+                setup=SlopeSetup,
+                category="overloaded",
+            )
+        )
+    return PreparedSlope(
+        params,
+        setup,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        layout,
+        tuple(notes),
+        domain=domain,
+        load_ratio=ratio,
+        source=source,
+        **snow,
+    )
+
+
+def load_ratio(
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any = 0.0,
+    **snow: Any,
+) -> np.ndarray:
+    """(n,) tau_p / tau_g of each particle at t = 0: its weak layer's strength over the
+    shear its own slab loads it with, rho g h0 sin(psi), in the model's own values (at
+    most 1: the layer fails under its slab before any cut). Particles in the order of
+    `damjax.core.model.slope_particles`; ``snow``: `build_slope`'s snow keywords."""
+    cover = snow.get("cover")
+    _, _, xp, yp = slope_particles(setup, cover=cover)
+    pf = slope_particle_fields(
+        params,
+        setup,
+        xp,
+        yp,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        thickness=uniform_value(snow.get("thickness")),
+        stability=snow.get("stability"),
+        wl_friction=snow.get("wl_friction"),
+    )
+    tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
+    tau_g = np.broadcast_to(tau_g, tau_p.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(tau_g > 0, tau_p / np.where(tau_g > 0, tau_g, 1.0), np.inf)
+
+
+def _check_size(
+    layout: SlopeLayout, setup: SlopeSetup, max_particles: int | None, cover: Any = None
+) -> None:
+    """InputError when a slope run has more than ``max_particles`` particles or cannot
+    fit in this machine's memory (``cover``: only the snow-covered cells hold particles)."""
+    ppc = int(setup.particles_per_cell)
+    cells = layout.n_cells[0] * layout.n_cells[1]
+    if cover is not None:
+        cells = int(np.sum(np.asarray(cover, bool)))
+    n = cells * ppc * ppc
+    if max_particles is not None and n > max_particles:
+        raise InputError(
+            [
+                Problem(
+                    "dx",
+                    setup.dx,
+                    f"with ${{length}} = {setup.length:g}, ${{width}} = {setup.width:g} and "
+                    f"${{particles_per_cell}} = {ppc} the run has {n:.3g} particles: must be "
+                    f"at most {max_particles:.0e}",
+                    setup=SlopeSetup,
+                )
+            ]
+        )
+    problem = size_problem(
+        n,
+        layout.grid_shape[0] * layout.grid_shape[1],
+        layout.n_chunks,
+        np.dtype(setup.dtype).itemsize,
+        ("length", "width", "dx", "duration", "particles_per_cell"),
+        " of the slope",
+        SlopeSetup,
+    )
+    raise_if([problem] if problem is not None else [])
+
+
+def run(
+    prep: PreparedSlope,
+    *,
+    progress: bool = False,
+    state: State | None = None,
+    start_chunk: int = 0,
+    history: tuple[list[Any], list[Any]] | None = None,
+    callback: Any = None,
+) -> SlopeResult:
+    """Integrate a prepared slope run of concrete inputs (`prepare`): the model built once,
+    the run chunk by chunk, the maps and every diagnostic. The arguments are
+    `simulate_slope`'s."""
+    params, setup, layout, domain = prep.params, prep.setup, prep.layout, prep.domain
+    model, state0, xp, yp = build(prep)
+    # (the notes of `prepare` warned of it; a scenario's loader words it itself)
+    fails0 = np.asarray(initial_failures(model))
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -578,7 +892,6 @@ def simulate_slope(
     band_x = np.abs(yp - y0) <= SPEED_BAND
     band_y = np.abs(xp - x0) <= SPEED_BAND
     up = np.max(np.where(broken & band_x, xp - x0, 0.0))
-    x_top = np.max(np.where(broken, xp, 0.0))
     cs = float(theory.shear_wave_speed(params))
     saw_r = float(final.saw_pos)
     # a crack front's speed, from the failures it caused: the weak layer that failed
@@ -589,6 +902,13 @@ def simulate_slope(
     )
     dy = np.abs(yp[band_y] - y0)
     across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
+    # each side of the start on its own (the farther one is ``across``)
+    side_extent = {
+        side: float(
+            np.max(np.where(np.isfinite(t_b[band_y]) & (sign * (yp[band_y] - y0) >= 0), dy, 0.0))
+        )
+        for side, sign in (("-y", -1.0), ("+y", 1.0))
+    }
     v_cross, v_cross_peak = _front_speed(
         dy, t_front[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
     )
@@ -613,23 +933,46 @@ def simulate_slope(
         fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
             m for b, m in FAULT_MESSAGES.items() if int(final.fault) & b
         )
-    # the up-slope front is still moving at the end unless no weak layer up-slope of the
-    # start failed in the last ARREST_QUIET s: "below the top" alone may be a crack that
-    # ran out of simulated time. Failures below the start are left out: the released slab
-    # keeps loading the toe long after the front stopped (Fig. 12 seed 0, 5 s: 2900 cells
-    # at x < 5 m failed after 3 s, none up-slope of the start).
+    # `front_quiet_at_end`: no weak layer up-slope of the start failed in the last
+    # ARREST_QUIET s (failures below the start are left out: the released slab keeps
+    # loading the toe long after the front stopped; Fig. 12 seed 0, 5 s: 2900 cells at
+    # x < 5 m failed after 3 s, none up-slope of the start)
     up_t = t_b[broken & (xp >= x0)]
     last_up = float(up_t.max()) if up_t.size else math.nan
     t_end = float(final.time)
     quiet = bool(not up_t.size or t_end - last_up >= ARREST_QUIET - 1e-9)
+    # the fronts' states from the release's outline over the whole map: its top for the
+    # up-slope front, its farthest points on either side of the start across
+    sawn_only = bool(final.saw_active)
+    if sawn_only:
+        up_state, up_end = "sawn_only", None
+        side_states = {"-y": ("sawn_only", None), "+y": ("sawn_only", None)}
+    else:
+        up_state, up_end = _front_state(xp - x0, t_b, setup.length - x0, t_end, setup.dx)
+        side_states = {
+            "-y": _front_state(y0 - yp, t_b, y0, t_end, setup.dx),
+            "+y": _front_state(yp - y0, t_b, setup.width - y0, t_end, setup.dx),
+        }
+    cross_state = _crossslope_state([st for st, _ in side_states.values()])
+    cross_end = max(
+        (v for st, v in side_states.values() if st == "moving" and v is not None), default=None
+    )
+    cross_arrest = max(
+        (side_extent[side] for side, (st, _) in side_states.items() if st == "arrested"),
+        default=None,
+    )
     summary = {
-        "upslope_arrest_distance_m": float(up),
-        "arrested_before_top": bool(x_top < setup.length - 2.0) and quiet,
+        "upslope_front": up_state,
+        "crossslope_front": cross_state,
+        "upslope_extent_m": float(up),
+        "upslope_arrest_distance_m": float(up) if up_state == "arrested" else None,
+        "crossslope_extent_m": float(across),
+        "crossslope_arrest_distance_m": cross_arrest if cross_state == "arrested" else None,
+        "upslope_front_end_speed_over_cs": None if up_end is None else up_end / cs,
+        "crossslope_front_end_speed_over_cs": None if cross_end is None else cross_end / cs,
+        "arrested_before_top": up_state == "arrested",
         "front_quiet_at_end": quiet,
         "last_upslope_failure_time_s": last_up if up_t.size else None,
-        # measured across the start, in the band |x - x0| <= SPEED_BAND (the band of the
-        # cross-slope speed), not over the whole map
-        "crossslope_extent_m": float(across),
         # None where a band had too few failures to fit (JSON has no NaN)
         "upslope_crack_speed_over_cs": _ratio_or_none(v_up_peak, cs),
         "crossslope_crack_speed_over_cs": _ratio_or_none(v_cross_peak, cs),
@@ -678,7 +1021,7 @@ def simulate_slope(
             "saw_stopped = False; a longer duration, or a slope steeper than the friction "
             "angle at the start)",
             SlopeRunWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
     snapshots = {}
     if snaps:
@@ -771,38 +1114,10 @@ def _layout_from_known(
     return make_slope_layout(known_params(params, unknown), setup, steepest)
 
 
-def _simulate_slope_traced(
-    params: PSTParams,
-    setup: SlopeSetup,
-    slope_deg: Any,
-    tau_peak: Any,
-    fall_deg: Any,
-    layout: SlopeLayout | None,
-    snow: dict[str, Any] | None = None,
-) -> SlopeResult:
+def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
     """`simulate_slope` on traced inputs: the pure run, JAX maps (`SlopeResult`)."""
-    require_x64(setup.dtype)
-    snow = snow or {}
-    # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
-    members = concrete_members((params, slope_deg, tau_peak, fall_deg))
-    for member in members or ():
-        problems = slope_problems(member[0], setup, *member[1:])
-        if problems:
-            raise ValueError("\n".join(problems))
-    cover = snow.get("cover")
-    if cover is not None and is_traced(cover):
-        raise TypeError(
-            "simulate_slope: cover (the snow-covered cells) fixes which particles exist: "
-            "it must be a concrete array, not traced"
-        )
-    if layout is None:
-        if members is None:
-            layout = _layout_from_known(params, setup, slope_deg, cover)
-        else:
-            layout = _batch_layout(members, setup, cover)
-    model, state0, xp, yp = build_slope(
-        params, setup, layout, slope_deg, tau_peak, fall_deg, **snow
-    )
+    params, setup, layout = prep.params, prep.setup, prep.layout
+    model, state0, xp, yp = build(prep)
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
     # each particle's cell from its reference position (host values: model.cell0 may be
