@@ -692,8 +692,11 @@ def prepare(
             as `PreparedSlope.source`), called once the parameters and the grid are valid
             (a scenario's terrain, snow and strength tables, read on the grid).
         max_particles: the most particles a run may have (scenario files).
-        thickness, cover, stability, wl_friction, domain: the snow cover and the weak
-            layer's own load (`simulate_slope`).
+        thickness: initial slab thickness h0 [m], scalar or (nx, ny) (`simulate_slope`).
+        cover: (nx, ny) bool, the snow-covered cells (`simulate_slope`).
+        stability: stability ratio S = tau_p / tau_g [-], scalar or (nx, ny).
+        wl_friction: friction coefficient of the weak layer's strength [-].
+        domain: (nx, ny) bool, the cells the run may release (`simulate_slope`).
     """
     setup = SlopeSetup() if setup is None else setup
     expect_types(
