@@ -498,7 +498,7 @@ def slope_field_problems(
             where = (
                 "every cell, those without snow too: the particles beside them interpolate; "
                 "fill them, e.g. from a neighbour"
-                if snow_map
+                if snow_map and a.ndim == 2
                 else "every cell"
             )
             reason = must_text(f"{spec.valid_text} ({where})")

@@ -203,13 +203,10 @@ class SlopeInputs:
             "wl_friction": self.wl_friction,
         }
 
-    def run_kwargs(self) -> dict[str, Any]:
-        """`damjax.simulate_slope`'s keywords beyond the slope, strength and fall maps."""
-        return {**self.snow_kwargs(), "domain": self.domain}
-
     def build(self, scn: Any, layout: Any) -> tuple[Any, Any]:
-        """(model, initial state) of scenario ``scn`` on ``layout``, started at
-        `start` (`damjax.core.model.build_slope` with these inputs)."""
+        """(model, initial state) of scenario ``scn`` on ``layout`` (an ensemble member's,
+        on the members' shared layout), started at `start` (`damjax.core.model.build_slope`
+        with these inputs; a prepared run builds with `damjax.slope.simulation.build`)."""
         from damjax.core.model import build_slope
 
         setup = dataclasses.replace(scn.setup, start=self.start)
