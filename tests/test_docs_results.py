@@ -46,6 +46,7 @@ def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
     assert hook.substitute('{{ result("toy", "x", case="a", digits=1) }} m') == "1.2 m"
     assert hook.substitute('{{ result("toy", "x", case="a", scale=100, sign=True) }}') == "+125.0"
     assert hook.substitute('{{ result("toy", "x", case="b", unit=" m") }}') == "-2.0 m"
+    assert hook.substitute('{{ result("toy", "x", case="a", scale=4/10*2, digits=2) }}') == "1.00"
     assert hook.substitute('{{ result("toy", "x", field="f") }}') == "1.25"  # a column "field"
     assert hook.substitute('{{ result("toy", "z.-1", case="b") }}') == "2.5"
     assert hook.substitute(
@@ -62,6 +63,8 @@ def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
         ('{{ figure("toy", "x") }}', "unknown marker 'figure'"),
         ('{{ result("toy") }}', "takes two names"),
         ('{{ result("toy", "x", case=a) }}', "cannot read"),
+        ('{{ result("toy", "x", case="a", scale=1-2) }}', "cannot read"),
+        ('{{ result("toy", "x", case="a", scale="2") }}', "not a number"),
         ('{{ result("toy", "x",\ncase="a") }}', "does not close on its line"),
     ):
         with pytest.raises(hook.ResultError, match=re.escape(needle)):
