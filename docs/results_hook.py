@@ -11,7 +11,8 @@ and the build puts there the field ``arrest_position_m`` of the one row of
 for a percentage; a product or quotient of numbers such as ``1/1024`` for MiB to GiB or
 ``1e-9`` for G/s), ``sign`` (a leading ``+`` on positive values), ``unit`` (text after a
 number), ``none`` (the text for a null value, e.g. "runs through"). A field may be a path
-into a row's lists and tables: ``"slab_fractures.0.x_m"``. An unknown file
+into a row's lists and tables: ``"slab_fractures.0.x_m"``, or ``"dx0.04.L_ca_m"`` for a
+key that holds a dot. An unknown file
 or field, a filter that matches no row or several, or any ``{{`` left over stops the
 build.
 
@@ -65,17 +66,23 @@ def result(name: str, field: str, /, **keys: Any) -> str:
     if len(found) != 1:
         raise ResultError(f"{where}: {len(found)} rows match, not one")
     value: Any = found[0]
-    for part in field.split("."):
+    parts = field.split(".")
+    while parts:
+        part = parts.pop(0)
         if (
             isinstance(value, list)
             and re.fullmatch(r"-?\d+", part)
             and -len(value) <= int(part) < len(value)
         ):
             value = value[int(part)]
-        elif isinstance(value, dict) and part in value:
-            value = value[part]
-        else:
+            continue
+        # a key may hold dots itself ("dx0.04"): the longest key that the path spells
+        spelt = [".".join([part, *parts[:n]]) for n in range(len(parts), -1, -1)]
+        key = next((k for k in spelt if isinstance(value, dict) and k in value), None)
+        if key is None:
             raise ResultError(f"{where}: the row has no field {field!r}")
+        value = value[key]
+        del parts[: key.count(".")]
     if value is None:
         if "none" not in opts:
             raise ResultError(f"{where}: {field} is null (give none=... for its text)")
