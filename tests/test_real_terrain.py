@@ -396,3 +396,51 @@ def test_snow_cover_runs_stay_differentiable_and_vmappable():
     both = quiet(jax.vmap(area), jnp.stack([s0, 1.2 * s0]))
     one = quiet(area, 1.2 * s0)
     assert float(both[1]) == pytest.approx(float(one), rel=1e-5)
+
+
+def test_the_gis_frame_is_the_runs_own_where_the_domain_leaves_the_dem(tmp_path):
+    """A snow-covered rectangle whose up-slope end lies past the DEM (a buffer's rectangle
+    clipped to the terrain): the GIS frame (AvaFrame and GeoTIFF exports) maps the cells
+    to the map points the run was built on instead of failing off the DEM."""
+    import xarray as xr
+
+    from damjax import terrain
+    from damjax.export import gis
+
+    dem = _tilted_dem(tmp_path)
+    dx = 0.5
+    x = (np.arange(180) + 0.5) * dx  # 90 m along the surface: the DEM ends before
+    y = (np.arange(60) + 0.5) * dx
+    ter = terrain.load_dem(dem)
+    with pytest.raises(ValueError):  # a rectangle that must lie on the DEM
+        slope_fields.dem_fields(ter, x, y, (1.0, 1.0), "+x")
+    _, _, px, py = slope_fields.dem_fields(
+        ter, x, y, (1.0, 1.0), "+x", nodata=True, map_points=True
+    )
+    ds = xr.Dataset(coords={"x": x, "y": y})
+    doc = {"terrain": {"kind": "dem", "file": str(dem), "origin": [1.0, 1.0], "upslope": "+x"}}
+    fr = gis.frame_of(ds, scenario=doc)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    mx, my = fr.to_map(X, Y)
+    np.testing.assert_allclose(mx, px, atol=1e-6)
+    np.testing.assert_allclose(my, py, atol=1e-6)
+
+
+def test_summary_crack_speeds_leave_out_speeds_no_front_reaches():
+    """Along a band, a front at 50 m/s and then a stretch whose arrival times barely rise
+    (cells failing together, or a front from the side crossing the band at a slant): the
+    peak and mean speeds leave out what is faster than the slab's wave speed."""
+    from damjax import theory
+    from damjax.slope.simulation import _front_speed
+
+    limit = float(theory.plane_stress_wave_speed(PSTParams()))
+    coord = np.arange(0.0, 40.0, 0.25) + 0.125
+    t = np.where(coord < 20.0, coord / 50.0, 0.4 + (coord - 20.0) / 5000.0)
+    mean0, peak0 = _front_speed(coord, t, 0.0, 40.0)
+    assert peak0 > 10 * limit  # without the limit: an apparent speed
+    mean, peak = _front_speed(coord, t, 0.0, 40.0, limit=limit)
+    assert 50.0 * (1 - 1e-6) <= peak <= limit
+    assert math.isnan(mean) or mean <= limit
+    # a front that runs throughout keeps its speeds
+    m1, p1 = _front_speed(coord, coord / 50.0, 0.0, 40.0, limit=limit)
+    assert m1 == pytest.approx(50.0) and p1 == pytest.approx(50.0)

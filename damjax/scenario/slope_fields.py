@@ -71,6 +71,42 @@ def cell_centres(setup: Any) -> tuple[np.ndarray, np.ndarray]:
 _AXES = {"+x": (1.0, 0.0), "-x": (-1.0, 0.0), "+y": (0.0, 1.0), "-y": (0.0, -1.0)}
 
 
+def centre_line_profile(
+    ter: Any,
+    a_max: float,
+    yc: float,
+    origin: tuple[float, float] = (0.0, 0.0),
+    upslope: str = "+x",
+    *,
+    nodata: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The surface profile of a release area's centre line: map distance a [m] from the
+    origin along ``upslope`` (0 to ``a_max``, 5 cm apart) and the surface distance s(a) [m],
+    on the line ``yc`` [m] across (`dem_fields`; `damjax.export.gis.frame_of` maps a run's
+    cells back to the map through the same profile).
+
+    With ``nodata`` (a domain the terrain bounds: a rectangle clipped to the DEM), the line
+    is clipped to the DEM, so the profile's tail beyond it is flat, and missing DEM cells
+    are bridged; without it, they are a ValueError.
+    """
+    u = np.array(_AXES[upslope])
+    v = np.array([-u[1], u[0]])
+    o = np.asarray(origin, dtype=float)
+    a = np.linspace(0.0, a_max, max(2, int(math.ceil(a_max / 0.05)) + 1))
+    line = o[:, None] + u[:, None] * a[None, :] + v[:, None] * yc
+    if nodata:
+        line = np.stack(
+            [np.clip(line[0], ter.x[0], ter.x[-1]), np.clip(line[1], ter.y[0], ter.y[-1])]
+        )
+    z = ter.sample(line[0], line[1])
+    if nodata and np.any(np.isfinite(z)):
+        ok = np.isfinite(z)
+        z = np.interp(a, a[ok], z[ok])
+    if not np.all(np.isfinite(z)):
+        raise ValueError("missing DEM cells (nodata) under the release area")
+    return a, np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(a), np.diff(z)))])
+
+
 def dem_fields(
     ter: Any,
     x: np.ndarray,
@@ -108,22 +144,9 @@ def dem_fields(
     u = np.array(_AXES[upslope])
     v = np.array([-u[1], u[0]])
     o = np.asarray(origin, dtype=float)
-    # surface profile along the centre line: s(a) for map distance a
     a_max = float(x[-1]) + float(x[1] - x[0] if x.size > 1 else 1.0)
-    a = np.linspace(0.0, a_max, max(2, int(math.ceil(a_max / 0.05)) + 1))
     yc = 0.5 * (float(y[0]) + float(y[-1]))
-    line = o[:, None] + u[:, None] * a[None, :] + v[:, None] * yc
-    if nodata:  # a rectangle clipped to the DEM: the profile's tail beyond it is flat
-        line = np.stack(
-            [np.clip(line[0], ter.x[0], ter.x[-1]), np.clip(line[1], ter.y[0], ter.y[-1])]
-        )
-    z = ter.sample(line[0], line[1])
-    if nodata and np.any(np.isfinite(z)):
-        ok = np.isfinite(z)
-        z = np.interp(a, a[ok], z[ok])
-    if not np.all(np.isfinite(z)):
-        raise ValueError("missing DEM cells (nodata) under the release area")
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(a), np.diff(z)))])
+    a, s = centre_line_profile(ter, a_max, yc, origin, upslope, nodata=nodata)
     if s[-1] < x[-1]:
         raise ValueError(
             f"the release area's centre line is {s[-1]:.4g} m long along the surface "

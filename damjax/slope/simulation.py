@@ -280,7 +280,12 @@ def _cell_map(
 
 
 def _front_speed(
-    coord: np.ndarray, t: np.ndarray, lo: float, hi: float, window: float = SPEED_WINDOW_M
+    coord: np.ndarray,
+    t: np.ndarray,
+    lo: float,
+    hi: float,
+    window: float = SPEED_WINDOW_M,
+    limit: float = math.inf,
 ) -> tuple[float, float]:
     """(mean, peak) speed [m/s] of the crack front along a band between ``lo`` and ``hi``.
 
@@ -289,6 +294,12 @@ def _front_speed(
     acceleration after the saw and the deceleration before the arrest in). Peak: the
     largest of the least-squares speeds over sliding windows of ``window`` metres, the
     counterpart of the PST's maximum crack speed (`damjax.diagnostics.crack_speed`).
+
+    Speeds above ``limit`` [m/s] (the slab's fastest wave, `damjax.slope.results.
+    front_speed_limit`) are no front's run along the band: there the cells failed together,
+    or a front that came round from elsewhere crossed the band at a slant (an apparent
+    speed; a real path's avaKot member of 2026-11-27 gave 25 c_s where the up-slope front
+    met fronts from the sides). Such windows are left out, and a mean above it is NaN.
     """
     sel = np.isfinite(t) & (coord >= lo) & (coord <= hi)
     if sel.sum() < 5 or np.ptp(t[sel]) <= 0:
@@ -305,14 +316,14 @@ def _front_speed(
     # arrival times that fall with distance (a front from elsewhere, a noisy strength
     # field) have no speed along this band
     slope = float(np.polyfit(cb, tt, 1)[0])
-    mean = 1.0 / slope if slope > 0 else math.nan
+    mean = 1.0 / slope if slope > 0 and 1.0 / slope <= limit else math.nan
     n_win = int(round(window / 0.5))
     speeds = []
     for i in range(cb.size):
         j = np.searchsorted(cb, cb[i] + window - 1e-9)
         if j - i >= max(3, n_win - 1) and np.ptp(tt[i:j]) > 0:
             slope = np.polyfit(cb[i:j], tt[i:j], 1)[0]
-            if slope > 0:
+            if slope > 0 and 1.0 / slope <= limit:
                 speeds.append(float(1.0 / slope))
     return mean, max(speeds, default=math.nan)
 
@@ -900,8 +911,10 @@ def run(
     # a crack front's speed, from the failures it caused: the weak layer that failed
     # under its own slab at t = 0 was no front's doing (all at once: no speed)
     t_front = np.where(fails0, np.inf, t_b)
+    # no front under the slab outruns its fastest wave (`results.front_speed_limit`)
+    c_max = float(theory.plane_stress_wave_speed(params))
     v_up, v_up_peak = _front_speed(
-        xp[band_x] - x0, t_front[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0)
+        xp[band_x] - x0, t_front[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0), limit=c_max
     )
     dy = np.abs(yp[band_y] - y0)
     across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
@@ -913,7 +926,7 @@ def run(
         for side, sign in (("-y", -1.0), ("+y", 1.0))
     }
     v_cross, v_cross_peak = _front_speed(
-        dy, t_front[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
+        dy, t_front[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0), limit=c_max
     )
     height = cm(column_height(model, final))
     nx, ny = layout.n_cells
