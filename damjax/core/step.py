@@ -147,6 +147,9 @@ def step(model: Model, state: State) -> State:
     # acceleration from gravity and cohesion; area0 / m = 1 / (rho h0)
     acc = model.g_tangent - (J * k_sec * intact / (model.density * model.thickness)) * state.u
 
+    # outflow (slopes): particles that slid over the grid's edge add nothing to the grid
+    active = None if state.outflow is None else ~state.outflow
+
     # 2. P2G
     sig = stress_tensor(state.sigma, dim)
     c_sig = dt * inv_d * model.thickness * model.area0
@@ -162,7 +165,10 @@ def step(model: Model, state: State) -> State:
     st = transfer.stencil(model.cell0, model.frac0, u_p2g, dx, model.grid_shape, model.periodic)
     n_nodes = model.n_nodes
     S = len(st.w)
-    mass_rows = [st.w[k] * m for k in range(S)]
+    w_p2g = st.w
+    if active is not None:  # times exactly 1 or 0: a run without outflow is unchanged
+        w_p2g = tuple(w * active.astype(w.dtype) for w in st.w)
+    mass_rows = [w_p2g[k] * m for k in range(S)]
     mom_rows = []
     for a in range(dim):
         mv = m * v_star[a]
@@ -171,9 +177,9 @@ def step(model: Model, state: State) -> State:
             q = mv
             for b in range(dim):
                 q = q + affine[a][b] * st.dpos[k][b]
-            rows.append(st.w[k] * q)
+            rows.append(w_p2g[k] * q)
         mom_rows.append(rows)
-    cap_rows = [st.w[k] * fcap for k in range(S)]
+    cap_rows = [w_p2g[k] * fcap for k in range(S)]
     # mass, momentum and cap (on a CPU in complex pairs: half the scatters); fixed-point
     # sums take their scales from per-particle bounds of the rows (w <= 1, |dpos| <=
     # 1.5 dx), cheaper than the maxima of the rows themselves
@@ -203,7 +209,7 @@ def step(model: Model, state: State) -> State:
     # nodes holding less than 1e-6 of a particle's mass count as empty: their velocity
     # p / m is ill-conditioned, and in 2D reverse mode the 1/m^2 of a node touched only
     # by a B-spline tail (weight ~1e-12) overflows float32 (0 * inf = NaN gradients)
-    has_mass = grid_mass > 1e-6 * m
+    has_mass = grid_mass > 1e-6 * (m if model.mass_ref is None else model.mass_ref)
     m_safe = jnp.where(has_mass, grid_mass, 1.0)
     inv_m = jnp.where(has_mass, 1.0 / m_safe, 0.0)
     vg = [p * inv_m for p in grid_mom]
@@ -231,6 +237,16 @@ def step(model: Model, state: State) -> State:
     v_new = jnp.stack(v_rows)
     C_new = jnp.stack([jnp.stack(r) for r in C_rows])
     u_new = state.u + dt * v_new
+    outflow = state.outflow
+    if active is not None:
+        # a particle whose stencil would leave the grid in this step stays where it was
+        # and leaves the run (outflow); one that left earlier is at rest and unstrained
+        leaving = _off_grid(model, u_new) & active
+        outflow = state.outflow | leaving
+        moving_p = active & ~leaving
+        v_new = jnp.where(moving_p, v_new, 0.0)
+        C_new = jnp.where(active, C_new, 0.0)
+        u_new = jnp.where(moving_p, u_new, state.u)
     d_eps = strain_increment(C_new, dt, dim)
     # the fracture law's view of the step's start: band openings, strengths, fracture times
     start, t_fracture = None, state.t_fracture
@@ -293,7 +309,23 @@ def step(model: Model, state: State) -> State:
         tip=tip,
         fault=fault,
         fault_time=fault_time,
+        outflow=outflow,
     )
+
+
+def _off_grid(model: Model, u: Any) -> Any:
+    """(n,) bool: particles whose stencil at displacement ``u`` would reach past the
+    grid's non-periodic edges (the runtime guard's test, `step`)."""
+    out = None
+    for d in range(model.dim):
+        if model.periodic[d]:
+            continue
+        base = model.cell0[d] + jnp.floor(model.frac0[d] + u[d] * (1.0 / model.dx) - 0.5).astype(
+            jnp.int32
+        )
+        o = (base < 0) | (base > model.grid_shape[d] - 3)
+        out = o if out is None else out | o
+    return jnp.zeros(u.shape[1:], bool) if out is None else out
 
 
 def residual_shear(model: Model, state: State) -> Any:
