@@ -1022,10 +1022,18 @@ def run(
         "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
     }
     if edge_frac is not None and edge_frac > DOMAIN_EDGE_WARN:
+        # a domain the terrain bounds (a polygon's buffer, the DEM's data) grows with the
+        # buffer or the window; a rectangle the user drew with its length and width
+        grow = (
+            "enlarge the domain (a release polygon's terrain.buffer, or the DEM window's "
+            "setup.length and setup.width)"
+            if domain is not None
+            else "enlarge the area (setup.length, setup.width) if the release should end inside it"
+        )
         warnings.warn(
             f"simulate_slope: {100 * edge_frac:.3g} % of the released area's boundary lies on "
             "the domain's edge (summary domain_edge_fraction): bounded by the domain, not "
-            "the terrain: enlarge the buffer (terrain.buffer) or the domain",
+            f"the terrain: {grow}",
             SlopeRunWarning,
             stacklevel=2,
         )
