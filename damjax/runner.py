@@ -69,6 +69,30 @@ class RunOutcome:
         return getattr(self.result, "fault", None) or self.summary.get("fault")
 
 
+def _file_attrs(scn: Any, summary: dict[str, Any]) -> dict[str, str]:
+    """results.nc's global attributes: CF conventions, the scenario and the summary
+    without its timings (a file that does not change between equal runs)."""
+    stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
+    return {
+        "Conventions": "CF-1.10",
+        "title": f"damjax {scn.type} scenario {scn.name}",
+        "source": f"damjax {_version()}",
+        "damjax_version": _version(),
+        "scenario": scn.to_toml(),
+        "summary": io.to_json(stable),
+    }
+
+
+def _read(reader: Any, path: Path, what: str) -> Any:
+    """``reader(path)``, a failure to read as one line naming the file (the CLI's error)."""
+    try:
+        return reader(path)
+    except ValueError as exc:  # the reader names the file
+        raise ValueError(f"unreadable {what}: {exc}") from None
+    except OSError as exc:
+        raise ValueError(f"{path}: unreadable {what} ({exc})") from None
+
+
 def default_out_dir(scn: Scenario) -> Path:
     """``[output] dir`` or ``damjax-out/<name>`` in the working directory."""
     return Path(scn.output.dir) if scn.output.dir else Path("damjax-out") / scn.name
@@ -259,12 +283,7 @@ def resume(
         finished = (out / SUMMARY).is_file()
         why = "the run there finished" if finished else "the run there never checkpointed"
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
-    try:
-        ck = io.read_npz(path)
-    except ValueError as exc:  # names the file
-        raise ValueError(f"unreadable checkpoint: {exc}") from None
-    except OSError as exc:
-        raise ValueError(f"{path}: unreadable checkpoint ({exc})") from None
+    ck = _read(io.read_npz, path, "checkpoint")
     if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
     try:
@@ -336,16 +355,7 @@ def _finish(
     phases = dict(phases or {})
     t0 = _time.perf_counter()
     summary = dict(result.summary)
-    stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
-    attrs = {
-        "Conventions": "CF-1.10",
-        "title": f"damjax {scn.type} scenario {scn.name}",
-        "source": f"damjax {_version()}",
-        "damjax_version": _version(),
-        "scenario": scn.to_toml(),
-        "summary": io.to_json(stable),
-        "fault": result.fault,
-    }
+    attrs = {**_file_attrs(scn, summary), "fault": result.fault}
     ds = io.result_dataset(
         result,
         crack_speed=diagnostics.crack_speed(result.time, result.tip),
@@ -400,18 +410,8 @@ def _run_slope(
             rec.save()
         raise
     summary = dict(result.summary)
-    stable = {k: v for k, v in summary.items() if k not in TIMING_KEYS}
     ds = result_dataset(result, snapshots=scn.output.snapshots)
-    ds.attrs.update(
-        {
-            "Conventions": "CF-1.10",
-            "title": f"damjax {scn.type} scenario {scn.name}",
-            "source": f"damjax {_version()}",
-            "damjax_version": _version(),
-            "scenario": scn.to_toml(),
-            "summary": io.to_json(stable),
-        }
-    )
+    ds.attrs.update(_file_attrs(scn, summary))
     if summary.get("fault"):
         ds.attrs["fault"] = summary["fault"]
     files = {"results": out / RESULTS}
@@ -465,12 +465,7 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
                 "ensemble_summary.json); `damjax show` re-plots single runs"
             )
         raise ValueError(f"{out_dir}: no {RESULTS} (not a damjax output folder?)")
-    try:
-        ds = io.open_dataset(path)
-    except ValueError as exc:  # names the file
-        raise ValueError(f"unreadable results: {exc}") from None
-    except OSError as exc:
-        raise ValueError(f"{path}: unreadable results ({exc})") from None
+    ds = _read(io.open_dataset, path, "results")
     if "scenario" not in ds.attrs or "summary" not in ds.attrs:
         raise ValueError(f"{path}: not written by damjax (no scenario/summary attributes)")
     try:
