@@ -233,7 +233,6 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     extent = setup.length if layout.dim == 1 else (setup.length, cy.size * dx / ppc)
     tensile, g_f, slab_kw = _slab_fracture(params, setup, plastic, lattice, x_ref, y_ref, extent)
 
-    phi = jnp.deg2rad(f(params.friction_deg))
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     x_ref_j = jnp.asarray(x_ref, dtype)
     if params.slope_profile is not None:  # psi(x) at the particles' reference positions
@@ -254,25 +253,98 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         )
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     g_t = jnp.zeros((layout.dim, n), dtype).at[0].set(-G_ACC * jnp.sin(psi))
-    n_steps = layout.n_steps
-    model = Model(
+    tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
+    u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
+    return _model_and_state(
+        params,
+        setup,
         grid_shape=layout.grid_shape,
-        dx=float(dx),
         periodic=layout.periodic,
         lateral=setup.lateral,
         saw_stops=not setup.controlled,
+        cell0=cell0,
+        frac0=frac0,
+        saw_coord=x_ref_j,
+        dt=_guarded_dt(params, setup, f(setup.duration / layout.n_steps), elastic_guard),
+        thickness=f(params.thickness),
+        area0=area0,
+        plastic=plastic,
+        tensile_strength=tensile,
+        fracture_energy=g_f,
+        slab_fields=slab_kw,
+        psi=psi,
+        g_tangent=g_t,
+        stiffness=K,
+        tau_peak=tau_p,
+        u_res=u_res,
+        u0=u0,
+        u_max=jnp.abs(u0[0]),
+    )
+
+
+def _model_and_state(
+    params: PSTParams,
+    setup: PSTSetup | SlopeSetup,
+    *,
+    grid_shape: tuple[int, ...],
+    periodic: tuple[bool, ...],
+    lateral: str,
+    saw_stops: bool,
+    cell0: np.ndarray,
+    frac0: np.ndarray,
+    saw_coord: Any,
+    dt: Any,
+    thickness: Any,
+    area0: float,
+    plastic: bool,
+    tensile_strength: Any,
+    fracture_energy: Any,
+    slab_fields: dict[str, Any],
+    psi: Any,
+    g_tangent: Any,
+    stiffness: Any,
+    tau_peak: Any,
+    u_res: Any,
+    u0: Any,
+    u_max: Any,
+) -> tuple[Model, State]:
+    """The `Model` and its initial `State` of a PST or a slope, from the fields at the
+    particles (n of them) that `build` and `build_slope` make in their own ways.
+
+    ``cell0``, ``frac0``: the particles' reference cells and offsets (dim, n);
+    ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
+    its runtime checks; ``thickness``: h0 [m]; ``area0``: the reference column-base area
+    per particle [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa],
+    ``fracture_energy`` G_f [J/m^2], ``slab_fields``: the slab law and the static
+    slab-fracture fields (`_slab_fracture`); ``psi``: the slope
+    angle [rad] (scalar or (n,)); ``g_tangent``: gravity along the slope (dim, n)
+    [m/s^2]; ``stiffness``: K [Pa/m]; ``tau_peak``, ``u_res``: (n,) strength [Pa] and
+    residual slip [m]; ``u0``, ``u_max``: the pre-loaded layer's slip (dim, n) and its
+    magnitude (n,) [m]. Everything else comes from ``params`` and ``setup``. The
+    derived constants (front width, w_c) are derived once here, not every step.
+    """
+    dtype = jnp.dtype(setup.dtype)
+    f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
+    n = u_max.shape[0]
+    dim = len(grid_shape)
+    model = Model(
+        grid_shape=grid_shape,
+        dx=float(setup.dx),
+        periodic=periodic,
+        lateral=lateral,
+        saw_stops=saw_stops,
         cell0=jnp.asarray(cell0, jnp.int32),
         frac0=jnp.asarray(frac0, dtype),
-        saw_coord=x_ref_j,
-        dt=_guarded_dt(params, setup, f(setup.duration / n_steps), elastic_guard),
+        saw_coord=saw_coord,
+        dt=dt,
         density=f(params.density),
-        thickness=f(params.thickness),
+        thickness=thickness,
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            tensile,
+            tensile_strength,
             f(params.mcc_m),
             f(params.mcc_beta),
             setup.p0_rule,
@@ -281,26 +353,24 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(g_f),
-        g_tangent=g_t,
-        g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
-        stiffness=K,
-        tau_peak=tau_p,
+        fracture_energy=f(fracture_energy),
+        g_tangent=g_tangent,
+        g_normal=jnp.broadcast_to(G_ACC * jnp.cos(psi), (n,)),
+        stiffness=stiffness,
+        tau_peak=tau_peak,
         softening=f(params.softening),
         u_res=u_res,
-        friction=jnp.tan(phi),
+        friction=jnp.tan(jnp.deg2rad(f(params.friction_deg))),
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
         accumulation=transfer.resolve_accumulation(setup.accumulation),
-        **slab_kw,
-    ).with_constants()  # front width, w_c: derived once, not every step
-    tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
-    u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
+        **slab_fields,
+    ).with_constants()
     state = State(
         u=u0,
-        v=jnp.zeros((layout.dim, n), dtype),
-        C=jnp.zeros((layout.dim, layout.dim, n), dtype),
+        v=jnp.zeros((dim, n), dtype),
+        C=jnp.zeros((dim, dim, n), dtype),
         eps=zero_components(n, dtype),
         sigma=zero_components(n, dtype),
         eps_p=zero_components(n, dtype),
@@ -308,7 +378,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         opening_y=jnp.zeros((n,), dtype),
         t_fracture=jnp.full((n,), jnp.inf, dtype),
         t_broken=jnp.full((n,), jnp.inf, dtype),
-        u_max=jnp.abs(u0[0]),
+        u_max=u_max,
         time=f(0.0),
         saw_pos=f(0.0),
         saw_active=jnp.asarray(True),
@@ -483,7 +553,6 @@ def build_slope(
     frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
     xp = (cell0[0] - layout.pad[0] + frac0[0]) * dx
     yp = (cell0[1] - layout.pad[1] + frac0[1]) * dx
-    n = xp.size
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
@@ -510,67 +579,32 @@ def build_slope(
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
-    phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
-    model = Model(
+    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
+    u0 = (f(params.density) * f(params.thickness) / K) * g_t
+    model, state = _model_and_state(
+        params,
+        setup,
         grid_shape=layout.grid_shape,
-        dx=float(dx),
         periodic=(False, False),
         lateral="free",
         saw_stops=True,
-        cell0=jnp.asarray(cell0, jnp.int32),
-        frac0=jnp.asarray(frac0, dtype),
+        cell0=cell0,
+        frac0=frac0,
         saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
         dt=dt,
-        density=f(params.density),
         thickness=f(params.thickness),
-        area0=f((dx / ppc) ** 2),
-        youngs_modulus=f(params.youngs_modulus),
-        poisson=f(params.poisson),
+        area0=(dx / ppc) ** 2,
         plastic=plastic,
-        p0_init=mcc.p0_from_tensile_strength(
-            tensile,
-            f(params.mcc_m),
-            f(params.mcc_beta),
-            setup.p0_rule,
-            setup.mcc_invariants,
-        ),
-        mcc_m=f(params.mcc_m),
-        mcc_beta=f(params.mcc_beta),
-        mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(g_f),
+        tensile_strength=tensile,
+        fracture_energy=g_f,
+        slab_fields=slab_kw,
+        psi=psi,
         g_tangent=g_t,
-        g_normal=G_ACC * jnp.cos(psi),
         stiffness=K,
         tau_peak=tau_p,
-        softening=f(params.softening),
         u_res=u_res,
-        friction=jnp.tan(phi),
-        saw_speed=f(params.saw_speed),
-        saw_lead=f(SAW_LEAD),
-        mcc_invariants=setup.mcc_invariants,
-        accumulation=transfer.resolve_accumulation(setup.accumulation),
-        **slab_kw,
-    ).with_constants()  # front width, w_c: derived once, not every step
-    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
-    u0 = (f(params.density) * f(params.thickness) / K) * g_t
-    state = State(
-        u=u0,
-        v=jnp.zeros((2, n), dtype),
-        C=jnp.zeros((2, 2, n), dtype),
-        eps=zero_components(n, dtype),
-        sigma=zero_components(n, dtype),
-        eps_p=zero_components(n, dtype),
-        opening=jnp.zeros((n,), dtype),
-        opening_y=jnp.zeros((n,), dtype),
-        t_fracture=jnp.full((n,), jnp.inf, dtype),
-        t_broken=jnp.full((n,), jnp.inf, dtype),
+        u0=u0,
         u_max=mcc._sqrt(jnp.sum(u0 * u0, axis=0)),  # finite gradient on a flat cell (u0 = 0)
-        time=f(0.0),
-        saw_pos=f(0.0),
-        saw_active=jnp.asarray(True),
-        tip=f(0.0),
-        fault=jnp.asarray(0, jnp.int32),
-        fault_time=f(jnp.nan),
     )
     return model, state, xp, yp
