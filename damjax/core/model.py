@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import equinox as eqx
@@ -233,6 +234,7 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     extent = setup.length if layout.dim == 1 else (setup.length, cy.size * dx / ppc)
     tensile, g_f, slab_kw = _slab_fracture(params, setup, plastic, lattice, x_ref, y_ref, extent)
 
+    phi = jnp.deg2rad(f(params.friction_deg))
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     x_ref_j = jnp.asarray(x_ref, dtype)
     if params.slope_profile is not None:  # psi(x) at the particles' reference positions
@@ -253,8 +255,12 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         )
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     g_t = jnp.zeros((layout.dim, n), dtype).at[0].set(-G_ACC * jnp.sin(psi))
-    tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
-    u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
+
+    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -tau_g along x
+        tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
+        u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)
+        return u0, jnp.abs(u0[0])
+
     return _model_and_state(
         params,
         setup,
@@ -266,19 +272,18 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         frac0=frac0,
         saw_coord=x_ref_j,
         dt=_guarded_dt(params, setup, f(setup.duration / layout.n_steps), elastic_guard),
-        thickness=f(params.thickness),
         area0=area0,
         plastic=plastic,
         tensile_strength=tensile,
         fracture_energy=g_f,
         slab_fields=slab_kw,
         psi=psi,
+        phi=phi,
         g_tangent=g_t,
         stiffness=K,
         tau_peak=tau_p,
         u_res=u_res,
-        u0=u0,
-        u_max=jnp.abs(u0[0]),
+        preload=preload,
     )
 
 
@@ -294,38 +299,43 @@ def _model_and_state(
     frac0: np.ndarray,
     saw_coord: Any,
     dt: Any,
-    thickness: Any,
     area0: float,
     plastic: bool,
     tensile_strength: Any,
     fracture_energy: Any,
     slab_fields: dict[str, Any],
     psi: Any,
+    phi: Any,
     g_tangent: Any,
     stiffness: Any,
     tau_peak: Any,
     u_res: Any,
-    u0: Any,
-    u_max: Any,
+    preload: Callable[[], tuple[Any, Any]],
 ) -> tuple[Model, State]:
     """The `Model` and its initial `State` of a PST or a slope, from the fields at the
     particles (n of them) that `build` and `build_slope` make in their own ways.
 
     ``cell0``, ``frac0``: the particles' reference cells and offsets (dim, n);
     ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
-    its runtime checks; ``thickness``: h0 [m]; ``area0``: the reference column-base area
+    its runtime checks; ``area0``: the reference column-base area
     per particle [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa],
     ``fracture_energy`` G_f [J/m^2], ``slab_fields``: the slab law and the static
     slab-fracture fields (`_slab_fracture`); ``psi``: the slope
-    angle [rad] (scalar or (n,)); ``g_tangent``: gravity along the slope (dim, n)
+    angle [rad] (scalar or (n,)); ``phi``: the weak layer's friction angle [rad];
+    ``g_tangent``: gravity along the slope (dim, n)
     [m/s^2]; ``stiffness``: K [Pa/m]; ``tau_peak``, ``u_res``: (n,) strength [Pa] and
-    residual slip [m]; ``u0``, ``u_max``: the pre-loaded layer's slip (dim, n) and its
-    magnitude (n,) [m]. Everything else comes from ``params`` and ``setup``. The
-    derived constants (front width, w_c) are derived once here, not every step.
+    residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium with
+    an unstressed slab, (dim, n), and its magnitude, (n,) [m]. Everything else comes
+    from ``params`` and ``setup``. The derived constants (front width, w_c) are derived
+    once here, not every step.
+
+    ``preload`` is called after the model is made: reverse mode sums the cotangents of a
+    traced parameter (K, rho, psi) in the reverse order of its uses, so that order is
+    part of the bits of a gradient.
     """
     dtype = jnp.dtype(setup.dtype)
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
-    n = u_max.shape[0]
+    n = saw_coord.shape[0]
     dim = len(grid_shape)
     model = Model(
         grid_shape=grid_shape,
@@ -338,7 +348,7 @@ def _model_and_state(
         saw_coord=saw_coord,
         dt=dt,
         density=f(params.density),
-        thickness=thickness,
+        thickness=f(params.thickness),
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
@@ -360,13 +370,14 @@ def _model_and_state(
         tau_peak=tau_peak,
         softening=f(params.softening),
         u_res=u_res,
-        friction=jnp.tan(jnp.deg2rad(f(params.friction_deg))),
+        friction=jnp.tan(phi),
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
         mcc_invariants=setup.mcc_invariants,
         accumulation=transfer.resolve_accumulation(setup.accumulation),
         **slab_fields,
     ).with_constants()
+    u0, u_max = preload()
     state = State(
         u=u0,
         v=jnp.zeros((dim, n), dtype),
@@ -579,9 +590,13 @@ def build_slope(
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
+    phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
-    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
-    u0 = (f(params.density) * f(params.thickness) / K) * g_t
+
+    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -rho h g_t
+        u0 = (f(params.density) * f(params.thickness) / K) * g_t
+        return u0, mcc._sqrt(jnp.sum(u0 * u0, axis=0))  # finite gradient on a flat cell
+
     model, state = _model_and_state(
         params,
         setup,
@@ -593,18 +608,17 @@ def build_slope(
         frac0=frac0,
         saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
         dt=dt,
-        thickness=f(params.thickness),
         area0=(dx / ppc) ** 2,
         plastic=plastic,
         tensile_strength=tensile,
         fracture_energy=g_f,
         slab_fields=slab_kw,
         psi=psi,
+        phi=phi,
         g_tangent=g_t,
         stiffness=K,
         tau_peak=tau_p,
         u_res=u_res,
-        u0=u0,
-        u_max=mcc._sqrt(jnp.sum(u0 * u0, axis=0)),  # finite gradient on a flat cell (u0 = 0)
+        preload=preload,
     )
     return model, state, xp, yp
