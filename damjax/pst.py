@@ -38,7 +38,7 @@ from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: pub
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
 from damjax.core.step import broken_mask, column_height, residual_shear
-from damjax.materials import mcc, slab_fracture, weak_layer
+from damjax.materials import mcc, weak_layer
 from damjax.materials.slab_fracture import band_opening, fracture_strain
 from damjax.params import PSTParams, PSTSetup
 from damjax.validation import (
@@ -59,8 +59,6 @@ from damjax.validation import (
     size_problem,
     warn_notes,
 )
-
-FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
 
 
 def weak_layer_shear(model: Model, state: State) -> Any:
@@ -536,7 +534,7 @@ def finish(
         timed_steps=info.steps_done,
     )
     result.summary["arrest_position_smooth_m"] = smooth
-    result.summary["slab_fracture_speed_changes"] = slab_fracture.speed_changes(
+    result.summary["slab_fracture_speed_changes"] = diagnostics.fracture_speed_changes(
         times, tips, fractures
     )
     return result
@@ -556,23 +554,23 @@ def _host_diagnostics(model: Model, final: State) -> tuple[Any, Any, Any]:
 
 def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     """Band fractures of a final state, ``{x_m, t_s, opening_m}`` sorted by time: bands
-    whose opening [m] reached `damjax.materials.slab_fracture.fracture_opening`, bands closer than
-    `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`).
+    whose opening [m] reached `damjax.materials.slab_fracture.fracture_opening`, bands closer
+    than `damjax.diagnostics.FRACTURE_GAP` merged (`damjax.diagnostics.band_fractures`).
     `simulate_pst` reports these for the "crack_band" slab, whose bands have a width of
     their own; the perfectly plastic "paper" slab's fractures are counted by what they do
-    to the crack (`damjax.materials.slab_fracture.crack_fractures`), which needs the tip
+    to the crack (`damjax.diagnostics.crack_fractures`), which needs the tip
     history. Models without a particle lattice use the opening strain
     (`damjax.diagnostics.slab_fractures`)."""
     x_ref = np.asarray(model.saw_coord)
     if model.lattice:
         w = np.asarray(band_opening(model, state.opening, opening_y=state.opening_y))
-        return slab_fracture.fractures(x_ref, w, np.asarray(state.t_fracture))
+        return diagnostics.band_fractures(x_ref, w, np.asarray(state.t_fracture))
     return diagnostics.slab_fractures(
         x_ref,
         np.asarray(state.opening),
         np.asarray(state.t_fracture),
         float(np.min(np.asarray(fracture_strain(model)))),
-        FRACTURE_GAP,
+        diagnostics.FRACTURE_GAP,
     )
 
 
@@ -585,11 +583,11 @@ def _crack_fractures(
     tips: np.ndarray,
 ) -> list[dict[str, float]]:
     """Fractures of the perfectly plastic slab by what they do to the crack
-    (`damjax.materials.slab_fracture.crack_fractures`: speed drops and the crown)."""
+    (`damjax.diagnostics.crack_fractures`: speed drops and the crown)."""
     arrested, l_ca, t_stop = diagnostics.arrest(times, tips, setup.length, setup.dx)
     if setup.controlled or not arrested:
         l_ca, t_stop = None, None
-    return slab_fracture.crack_fractures(
+    return diagnostics.crack_fractures(
         times,
         tips,
         x_ref,

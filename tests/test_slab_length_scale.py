@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from damjax import diagnostics
 from damjax.materials import slab_fracture
 from damjax.materials.slab_fracture import band_opening
 
@@ -82,7 +83,7 @@ def test_fractures_are_counted_from_openings():
         near = np.abs(x - x0) < 0.1
         opening[near] = w0
         t[near] = t0
-    out = slab_fracture.fractures(x, opening, t)
+    out = diagnostics.band_fractures(x, opening, t)
     # the bands at 3.0 and 3.4 m are closer than FRACTURE_GAP: one fracture
     assert [round(f["x_m"], 1) for f in out] == [2.9, 6.9]
     assert out[0]["t_s"] == 0.5 and out[0]["opening_m"] == 4e-3
@@ -92,7 +93,9 @@ def test_fractures_are_counted_from_openings():
 def test_speed_change_of_a_fracture():
     time = np.linspace(0.0, 1.0, 1001)
     tip = np.where(time < 0.5, 100.0 * time, 50.0 + 10.0 * (time - 0.5))
-    (c,) = slab_fracture.speed_changes(time, tip, [{"x_m": 40.0, "t_s": 0.5, "opening_m": 0.0}])
+    (c,) = diagnostics.fracture_speed_changes(
+        time, tip, [{"x_m": 40.0, "t_s": 0.5, "opening_m": 0.0}]
+    )
     assert c["speed_before_m_per_s"] == pytest.approx(100.0, rel=1e-6)
     assert c["speed_after_m_per_s"] == pytest.approx(10.0, rel=1e-6)
     assert c["speed_drop_m_per_s"] == pytest.approx(90.0, rel=1e-6)
