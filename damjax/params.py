@@ -116,7 +116,8 @@ class Spec:
         unit: SI unit ("" for a dimensionless number).
         doc: meaning, one line (the symbol of the papers included).
         kind: "float", "int", "bool", "choice" (one of ``valid``), "profile" (an array of
-            >= 2 values along the PST, each in ``valid``) or "point" (two numbers).
+            >= 2 values along the PST, each in ``valid``), "point" (two numbers) or "mask"
+            (a slope run's (nx, ny) bool map of cells).
         valid: the valid range (a `Range`) or the allowed values (a tuple).
         plausible: values a snow slab has (a `Range`); a valid value outside it is
             warned, naming ``plausible_why``.
@@ -393,6 +394,37 @@ class PSTParams(eqx.Module):
 # maps of slope_deg and tau_peak are checked against the declarations of those parameters
 FALL_DEG_SPEC = Spec(
     "deg", "fall-line direction relative to -x", valid=Range(-INF, INF), name="fall_deg"
+)
+# the snow cover and the weak layer's own load on a slope (`damjax.simulate_slope`'s
+# thickness, stability, wl_friction, cover and domain; 2026-11-27): a thickness map is
+# checked against the parameter thickness, the others against these
+STABILITY_SPEC = Spec(
+    "",
+    "stability ratio S = tau_p / tau_g of the weak layer under its own slab, tau_g = rho g "
+    "h0 sin(psi) at each particle (tau_p follows the particle's own load)",
+    valid=POSITIVE,
+    name="stability",
+)
+WL_FRICTION_SPEC = Spec(
+    "",
+    "friction coefficient mu of the weak layer's strength, tau_p = tau_peak + mu rho g h0 "
+    "cos(psi) (tau_peak the cohesion)",
+    valid=NONNEGATIVE,
+    name="wl_friction",
+)
+COVER_SPEC = Spec(
+    "",
+    "the snow-covered cells: only they hold particles (a cell without snow costs no "
+    "particle work and is a free edge)",
+    kind="mask",
+    name="cover",
+)
+DOMAIN_SPEC = Spec(
+    "",
+    "the cells the run may release (a release polygon's buffer within the DEM's data): "
+    "its edge, with the rectangle's, is where a release counts as bounded by the domain",
+    kind="mask",
+    name="domain",
 )
 
 # PSTParams fields that are arrays over x (a batch of them has shape (B, m))

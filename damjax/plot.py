@@ -123,7 +123,9 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     plt = _plt()
     from matplotlib.colors import ListedColormap
 
-    h0 = float(result.params.thickness)
+    from damjax.slope.simulation import initial_thickness
+
+    h0 = initial_thickness(result)
     ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
     fig, axes = plt.subplots(1, 4, figsize=(17, 5.5), constrained_layout=True)
     ax = axes[0]
@@ -279,8 +281,11 @@ def animate_slope(result: Any, path: str, fps: int = 8) -> None:
     plt = _plt()
     from matplotlib.animation import FuncAnimation, PillowWriter
 
+    from damjax.slope.simulation import initial_thickness
+
     snaps = result.snapshots
-    h0 = float(result.params.thickness)
+    h0 = initial_thickness(result)
+    h0 = np.where(h0 > 0, h0, np.nan)  # no snow: no anomaly
     ext = [result.y[0], result.y[-1], result.x[0], result.x[-1]]
     fig, ax = plt.subplots(figsize=(5, 5.5), constrained_layout=True)
     im = ax.imshow(

@@ -4,7 +4,9 @@ A release area (a polygon file: shapefile, GeoJSON, GeoPackage; one or more poly
 DEM becomes the rectangle a slope run simulates: its x axis points up-slope along one DEM
 axis (the one closest to the mean up-slope direction over the polygon, or the one given),
 its y axis 90 deg counter-clockwise from it, and the rectangle spans the polygon plus a
-margin [m] on every side. The DEM's CRS is kept: the polygon's CRS must be the DEM's (no
+buffer [m] on every side, clipped to the DEM; the domain is the terrain within the buffer
+(`ReleaseArea.domain_mask`; without a buffer: the whole rectangle of the polygon plus a
+margin, as in earlier versions). The DEM's CRS is kept: the polygon's CRS must be the DEM's (no
 reprojection; a mismatch is an error naming both). The slab thickness is the polygon's
 thickness attribute (AvaFrame's ``thickness`` convention; several polygons must agree), and
 the crack starts at the weakest spot of the weak layer inside the polygon.
@@ -45,9 +47,12 @@ class ReleaseArea:
         origin: map coordinates of the rectangle's lower left corner [m].
         length: up-slope extent of the rectangle along the surface [m].
         width: cross-slope extent of the rectangle [m] (a map distance).
-        margin: margin around the polygon [m].
+        margin: margin around the polygon [m] (the buffer, where one is given).
         profile_a: map distances along the centre line [m] (for `to_map`).
         profile_s: surface distances at profile_a [m].
+        buffer: with a buffer [m], the run's domain is the terrain within this map
+            distance of the polygon (`domain_mask`), the rectangle around it clipped to
+            the DEM; None: the rectangle of the polygon plus ``margin`` (earlier versions).
     """
 
     geometry: Any
@@ -60,6 +65,7 @@ class ReleaseArea:
     margin: float
     profile_a: np.ndarray
     profile_s: np.ndarray
+    buffer: float | None = None
 
     def to_map(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
         """Map coordinates of release-area points (x up-slope along the surface, y across)
@@ -77,6 +83,18 @@ class ReleaseArea:
 
         px, py = self.to_map(np.asarray(x)[:, None], np.asarray(y)[None, :])
         geom = self.geometry.buffer(-buffer) if buffer > 0 else self.geometry
+        return np.asarray(shapely.contains_xy(geom, px, py))
+
+    def domain_mask(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(nx, ny) bool: cell centres within ``buffer`` [m] (map distance) of the polygon;
+        every cell of the rectangle when there is no buffer."""
+        import shapely
+
+        if self.buffer is None:
+            return np.ones((np.size(x), np.size(y)), bool)
+        px, py = self.to_map(np.asarray(x)[:, None], np.asarray(y)[None, :])
+        geom = shapely.buffer(self.geometry, self.buffer, quad_segs=16)
+        shapely.prepare(geom)
         return np.asarray(shapely.contains_xy(geom, px, py))
 
 
@@ -122,6 +140,7 @@ def read_release_area(
     upslope: str | None = None,
     thickness_field: str = "thickness",
     key: str = "terrain.release",
+    buffer: float | None = None,
 ) -> ReleaseArea:
     """Read a release-area polygon and place it on a DEM.
 
@@ -134,6 +153,10 @@ def read_release_area(
             direction over the polygon.
         thickness_field: the attribute holding the slab thickness [m] ("": not read).
         key: the scenario key named in errors.
+        buffer: the domain is the terrain within this distance [m] of the polygon
+            (`ReleaseArea.domain_mask`), in the rectangle of the polygon plus ``buffer``
+            clipped to the DEM (``margin`` is not used); None: the rectangle of the
+            polygon plus ``margin``, which must lie on the DEM.
 
     Raises:
         ReleaseAreaError: unreadable file, no polygon, a CRS mismatch, a polygon (plus
@@ -190,7 +213,20 @@ def read_release_area(
             )
         thickness = float(vals[0])
     xmin, ymin, xmax, ymax = geom.bounds
-    inside = (
+    if buffer is not None:
+        margin = float(buffer)
+        if not (
+            xmin >= terrain.x[0]
+            and xmax <= terrain.x[-1]
+            and ymin >= terrain.y[0]
+            and ymax <= terrain.y[-1]
+        ):
+            raise ReleaseAreaError(
+                f"{key} = {path.name!r}: the polygon spans x [{xmin:.1f}, {xmax:.1f}], y "
+                f"[{ymin:.1f}, {ymax:.1f}] m, outside the DEM's x [{terrain.x[0]:.1f}, "
+                f"{terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, {terrain.y[-1]:.1f}] m"
+            )
+    inside = buffer is not None or (
         xmin - margin >= terrain.x[0]
         and xmax + margin <= terrain.x[-1]
         and ymin - margin >= terrain.y[0]
@@ -220,11 +256,19 @@ def read_release_area(
     a0, b0 = float(a.min()) - margin, float(b.min()) - margin
     a_span = float(a.max()) - float(a.min()) + 2 * margin
     width = float(b.max()) - float(b.min()) + 2 * margin
+    if buffer is not None:  # clipped to the DEM's extent
+        (da0, da1), (db0, db1) = _dem_range(terrain, u), _dem_range(terrain, v)
+        a1, b1 = min(float(a.max()) + margin, da1), min(float(b.max()) + margin, db1)
+        a0, b0 = max(a0, da0), max(b0, db0)
+        a_span, width = a1 - a0, b1 - b0
     origin = (float(u[0] * a0 + v[0] * b0), float(u[1] * a0 + v[1] * b0))
     # the surface length of the centre line over the map span
     pa = np.linspace(0.0, a_span, max(2, int(math.ceil(a_span / _PROFILE_STEP)) + 1))
     line = np.asarray(origin)[:, None] + u[:, None] * pa[None, :] + v[:, None] * (0.5 * width)
     z = terrain.sample(line[0], line[1])
+    if buffer is not None and np.any(np.isfinite(z)):  # nodata on the line: bridged
+        ok = np.isfinite(z)
+        z = np.interp(pa, pa[ok], z[ok])
     if not np.all(np.isfinite(z)):
         raise ReleaseAreaError(f"{key} = {path.name!r}: missing DEM cells (nodata) under it")
     ps = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(pa), np.diff(z)))])
@@ -239,7 +283,16 @@ def read_release_area(
         margin=float(margin),
         profile_a=pa,
         profile_s=ps,
+        buffer=None if buffer is None else float(buffer),
     )
+
+
+def _dem_range(terrain: Any, axis: np.ndarray) -> tuple[float, float]:
+    """The range of the DEM's nodes projected on a map axis (+-x or +-y) [m]."""
+    c = terrain.x if axis[0] != 0 else terrain.y
+    sign = axis[0] if axis[0] != 0 else axis[1]
+    lo, hi = sorted((sign * float(c[0]), sign * float(c[-1])))
+    return lo, hi
 
 
 def weakest_inside(

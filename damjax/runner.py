@@ -152,12 +152,9 @@ def _template(scn: Scenario) -> tuple[Any, Any]:
     structure, to read a saved one back)."""
     prep = scenario.prepared(scn)
     if scn.type == "slope":
-        from damjax.core.model import build_slope
+        from damjax.slope.simulation import build
 
-        _, state, _, _ = build_slope(
-            prep.params, prep.setup, prep.layout, prep.slope_deg, prep.tau_peak, prep.fall_deg
-        )
-        return prep.layout, state
+        return prep.layout, build(prep)[1]
     from damjax.core.model import build
 
     return prep.layout, build(prep.params, prep.setup, prep.layout)[1]

@@ -31,8 +31,12 @@ from damjax import theory
 from damjax._tracing import is_traced
 from damjax.constants import G_ACC
 from damjax.params import (
+    COVER_SPEC,
+    DOMAIN_SPEC,
     FALL_DEG_SPEC,
     PROFILE_FIELDS,
+    STABILITY_SPEC,
+    WL_FRICTION_SPEC,
     PSTParams,
     PSTSetup,
     SlopeSetup,
@@ -375,24 +379,46 @@ def _cells_problem(name: str, setup: Any) -> Problem:
 # --------------------------------------------------------------------------- slopes
 
 
+# the snow cover's inputs of a slope run (`damjax.simulate_slope`; 2026-11-27)
+SNOW_MAPS = ("thickness", "stability", "wl_friction")
+SNOW_MASKS = ("cover", "domain")
+
+
 def map_specs() -> dict[str, Spec]:
     """The declarations the maps of a slope run are checked against (`damjax.params`):
-    those of the parameters slope_deg and tau_peak, and of the fall-line direction."""
+    those of the parameters slope_deg, tau_peak and thickness, of the fall-line direction,
+    of the stability ratio and of the weak layer's friction coefficient."""
     table = specs(PSTParams)
     return {
         "slope_deg": table["slope_deg"],
         "tau_peak": table["tau_peak"],
         "fall_deg": FALL_DEG_SPEC,
+        "thickness": table["thickness"],
+        "stability": STABILITY_SPEC,
+        "wl_friction": WL_FRICTION_SPEC,
     }
 
 
+def mask_specs() -> dict[str, Spec]:
+    """The declarations of a slope run's bool maps (`damjax.params`): the snow cover and
+    the domain."""
+    return {"cover": COVER_SPEC, "domain": DOMAIN_SPEC}
+
+
 def slope_problems(
-    params: PSTParams, setup: SlopeSetup, slope: Any = None, tau: Any = None, fall: Any = 0.0
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope: Any = None,
+    tau: Any = None,
+    fall: Any = 0.0,
+    **snow: Any,
 ) -> list[Problem]:
     """The problems of a slope run's input (`damjax.simulate_slope`): the values, the
     grid, dx against Lambda and, where the maps are given (``slope`` [deg], ``tau`` [Pa],
-    ``fall`` [deg]: scalars or (nx, ny) arrays at the cell centres), the start and the
-    maps (`slope_field_problems`). A given slope map replaces params.slope_deg."""
+    ``fall`` [deg]: scalars or (nx, ny) arrays at the cell centres; ``snow``: the snow
+    cover's ``thickness`` [m], ``stability`` [-], ``wl_friction`` [-], ``cover`` and
+    ``domain``), the start and the maps (`slope_field_problems`). A given slope map
+    replaces params.slope_deg."""
     out = param_problems(params, skip=["slope_deg"] if slope is not None else [])
     setup_out = _fields(setup, SlopeSetup)
     if setup_out:  # the checks below need a valid grid
@@ -405,15 +431,32 @@ def slope_problems(
     problem = lambda_problem(setup.dx, float(theory.elastic_length(params)), SlopeSetup)
     if problem is not None:
         return [problem]
-    if slope is None and tau is None:
+    if slope is None and tau is None and all(v is None for v in snow.values()):
         return []
-    return slope_field_problems(setup, slope, tau, fall)
+    return slope_field_problems(setup, slope, tau, fall, params=params, **snow)
 
 
-def slope_field_problems(setup: SlopeSetup, slope: Any, tau: Any, fall: Any) -> list[Problem]:
+def slope_field_problems(
+    setup: SlopeSetup,
+    slope: Any,
+    tau: Any,
+    fall: Any,
+    *,
+    params: PSTParams | None = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
+) -> list[Problem]:
     """The problems of a slope run's start and fields: the start inside the release area,
-    the slope angle [deg], strength [Pa] and fall-line direction [deg] scalars or (nx, ny)
-    arrays at the cell centres, each value in its range."""
+    the slope angle [deg], strength [Pa] and fall-line direction [deg], and the snow
+    cover's slab thickness h0 [m], stability ratio [-] and friction coefficient [-]:
+    scalars or (nx, ny) arrays at the cell centres, each value in its range (a snow map
+    on every cell, those without snow too: the particles beside them interpolate); the
+    bool maps ``cover`` and ``domain`` (nx, ny), the cover not empty. Given the
+    ``params``, also what the snow cover asks of them: dx resolves Lambda at the thinnest
+    slab, and a "crack_band" slab has a particle in every cell."""
     try:
         x0, y0 = (float(c) for c in setup.start)
     except (TypeError, ValueError):
@@ -429,26 +472,94 @@ def slope_field_problems(setup: SlopeSetup, slope: Any, tau: Any, fall: Any) -> 
             )
         )
     cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
-    for name, arr in (("slope_deg", slope), ("tau_peak", tau), ("fall_deg", fall)):
+    given = dict(slope_deg=slope, tau_peak=tau, fall_deg=fall, thickness=thickness)
+    given.update(stability=stability, wl_friction=wl_friction)
+    for name, arr in given.items():
         if arr is None:
             continue
-        a = np.asarray(arr, dtype=float)
         spec = map_specs()[name]
+        snow_map = name in SNOW_MAPS
+        try:
+            a = np.asarray(arr, dtype=float)
+        except (TypeError, ValueError):
+            reason = "must be a number or a 2D array (nx, ny) of numbers"
+            out.append(Problem(name, None, reason, form="map", setup=SlopeSetup))
+            continue
         if a.ndim == 2 and a.shape != cells:
             reason = (
                 f"shape {a.shape} must be (nx, ny) = {cells}, the cells of length "
                 f"{setup.length} m x width {setup.width} m at dx {setup.dx} m"
             )
-        elif a.ndim not in (0, 2) or not np.all(
-            np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))
-        ):
+        elif a.ndim not in (0, 2):
+            reason = "must be a scalar or a 2D array (nx, ny)"
+        elif not snow_map and not np.all(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))):
             reason = "must be a finite scalar or a 2D array (nx, ny)"
         elif not np.all(spec.valid.holds(a)):
-            reason = must_text(f"{spec.valid_text} (every cell)")
+            where = (
+                "every cell, those without snow too: the particles beside them interpolate; "
+                "fill them, e.g. from a neighbour"
+                if snow_map and a.ndim == 2
+                else "every cell"
+            )
+            reason = must_text(f"{spec.valid_text} ({where})")
         else:
             continue
         found = (float(np.nanmin(a)), float(np.nanmax(a))) if a.size else (math.nan,) * 2
         out.append(Problem(name, found, reason, spec.valid_text, form="map", setup=SlopeSetup))
+    for name, arr in (("cover", cover), ("domain", domain)):
+        if arr is None:
+            continue
+        a = np.asarray(arr)
+        if a.shape != cells or a.dtype != bool:
+            reason = (
+                f"must be a bool map (nx, ny) = {cells}, the cells of length {setup.length} m "
+                f"x width {setup.width} m at dx {setup.dx} m (got {a.dtype} {a.shape})"
+            )
+        elif name == "cover" and not a.any():
+            reason = "no snow-covered cell (every cell is False): the slope has no slab to run"
+        else:
+            continue
+        out.append(Problem(name, a.shape, reason, form="map", setup=SlopeSetup))
+    if out or params is None:
+        return out
+    return out + _snow_cover_problems(params, setup, thickness, cover)
+
+
+def _snow_cover_problems(
+    params: PSTParams, setup: SlopeSetup, thickness: Any, cover: Any
+) -> list[Problem]:
+    """What a (valid) snow cover asks of the parameters and the setup: dx at most Lambda/2
+    at the thinnest slab of the snow-covered cells; a "crack_band" slab (its band openings
+    sum over the particles' lattice) with a particle in every cell."""
+    out = []
+    if thickness is not None:
+        h = np.asarray(thickness, dtype=float)
+        if cover is not None and h.ndim == 2:
+            h = h[np.asarray(cover, bool)]
+        thin = float(np.min(h))
+        lam = float(theory.elastic_length(dataclasses.replace(params, thickness=thin)))
+        if setup.dx > lam / 2:
+            out.append(
+                Problem(
+                    "dx",
+                    setup.dx,
+                    f"must be at most Lambda/2 = {lam / 2:.4g} m at the thinnest slab, "
+                    f"{thin:.3g} m (Lambda = {lam:.4g} m, the weak-layer elastic length, must "
+                    "be resolved)",
+                    setup=SlopeSetup,
+                )
+            )
+    holes = cover is not None and not np.all(np.asarray(cover, bool))
+    if holes and setup.slab_fracture == "crack_band" and is_plastic(params) is not False:
+        out.append(
+            Problem(
+                "slab_fracture",
+                setup.slab_fracture,
+                "needs a particle in every cell (its band openings sum over the particles' "
+                'lattice), and the snow cover leaves cells empty; use "paper"',
+                setup=SlopeSetup,
+            )
+        )
     return out
 
 

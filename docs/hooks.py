@@ -32,6 +32,7 @@ PUBLIC_MODULES = (
     "damjax.export.gis",
     "damjax.export.avaframe",
     "damjax.snow_profiles",
+    "damjax.snow_cover",
     "damjax.distributed",
     "damjax.scenario",
 )
@@ -274,6 +275,20 @@ def scenario_keys_page() -> str:
     ]
     for kind, table in sslope._STRENGTH_KEYS.items():
         out += [f'### `kind = "{kind}"`', "", *_unit_table(table), ""]
+    out += [
+        '## `[snow]` of `type = "slope"`',
+        "",
+        "`kind` is one of " + ", ".join(f'`"{k}"`' for k in sslope.SNOW_KINDS) + " "
+        '(default `"uniform"`; sources and defaults: [the real-path guide]'
+        "(../guide/real-path.md#snow-cover-and-weak-layer-on-terrain)); every kind also "
+        "takes:",
+        "",
+        *_unit_table(sslope._SNOW_COMMON),
+        "",
+    ]
+    for kind, table in sslope._SNOW_KEYS.items():
+        if table:
+            out += [f'### `kind = "{kind}"`', "", *_unit_table(table), ""]
     out += [
         "## `[ensemble]` (slope scenarios, `damjax ensemble`)",
         "",

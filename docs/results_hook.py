@@ -8,9 +8,11 @@ A page writes a marker where the figure goes::
 and the build puts there the field ``arrest_position_m`` of the one row of
 ``results/pst.jsonl`` whose fields equal the other keywords (here ``case`` and
 ``lateral``). Options, not row filters: ``digits`` (decimals), ``scale`` (a factor, 100
-for a percentage), ``sign`` (a leading ``+`` on positive values), ``unit`` (text after a
+for a percentage; a product or quotient of numbers such as ``1/1024`` for MiB to GiB or
+``1e-9`` for G/s), ``sign`` (a leading ``+`` on positive values), ``unit`` (text after a
 number), ``none`` (the text for a null value, e.g. "runs through"). A field may be a path
-into a row's lists and tables: ``"slab_fractures.0.x_m"``. An unknown file
+into a row's lists and tables: ``"slab_fractures.0.x_m"``, or ``"dx0.04.L_ca_m"`` for a
+key that holds a dot. An unknown file
 or field, a filter that matches no row or several, or any ``{{`` left over stops the
 build.
 
@@ -64,17 +66,23 @@ def result(name: str, field: str, /, **keys: Any) -> str:
     if len(found) != 1:
         raise ResultError(f"{where}: {len(found)} rows match, not one")
     value: Any = found[0]
-    for part in field.split("."):
+    parts = field.split(".")
+    while parts:
+        part = parts.pop(0)
         if (
             isinstance(value, list)
             and re.fullmatch(r"-?\d+", part)
             and -len(value) <= int(part) < len(value)
         ):
             value = value[int(part)]
-        elif isinstance(value, dict) and part in value:
-            value = value[part]
-        else:
+            continue
+        # a key may hold dots itself ("dx0.04"): the longest key that the path spells
+        spelt = [".".join([part, *parts[:n]]) for n in range(len(parts), -1, -1)]
+        key = next((k for k in spelt if isinstance(value, dict) and k in value), None)
+        if key is None:
             raise ResultError(f"{where}: the row has no field {field!r}")
+        value = value[key]
+        del parts[: key.count(".")]
     if value is None:
         if "none" not in opts:
             raise ResultError(f"{where}: {field} is null (give none=... for its text)")
@@ -86,6 +94,17 @@ def result(name: str, field: str, /, **keys: Any) -> str:
     return ("+" if opts.get("sign") and value > 0 else "") + text + opts.get("unit", "")
 
 
+def _number(node: ast.expr) -> float:
+    """A number written as a literal or as products and quotients of literals."""
+    if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Mult, ast.Div)):
+        left, right = _number(node.left), _number(node.right)
+        return left * right if isinstance(node.op, ast.Mult) else left / right
+    value = ast.literal_eval(node)
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise ValueError(f"not a number: {ast.unparse(node)}")
+    return value
+
+
 def evaluate(call: str) -> str:
     """The value of one marker's text, ``result("name", "field", key=value, ...)``."""
     try:
@@ -95,8 +114,11 @@ def evaluate(call: str) -> str:
         if node.func.id != "result":
             raise ResultError(f"unknown marker {node.func.id!r} (only result(...)): {call}")
         args = [ast.literal_eval(a) for a in node.args]
-        kwargs = {k.arg: ast.literal_eval(k.value) for k in node.keywords}
-    except (SyntaxError, ValueError) as e:
+        kwargs = {
+            k.arg: _number(k.value) if k.arg == "scale" else ast.literal_eval(k.value)
+            for k in node.keywords
+        }
+    except (SyntaxError, ValueError, ZeroDivisionError) as e:
         if isinstance(e, ResultError):
             raise
         raise ResultError(f"cannot read the marker {{{{ {call} }}}}: {e}") from None

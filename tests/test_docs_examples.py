@@ -1,25 +1,30 @@
-"""The command-line examples of the docs marked to run, run as written and print what the
-pages say.
+"""The examples of the docs marked to run, run as written and print what the pages say.
 
-A page marks an example with an HTML comment right before its ``bash`` block (invisible
-in the site):
+A page marks an example with an HTML comment right before its ``bash`` or ``python`` block
+(invisible in the site):
 
     <!-- ci-example -->            the commands exit 0
-    <!-- ci-example: status=2 -->  the block's last command exits 2
+    <!-- ci-example: status=2 -->  the block's last command exits 2 (a python block: the
+                                   script exits 2)
 
 A ``text`` block right after it is the expected output. Each of its lines must be a line
 of what the commands printed (stdout and stderr, runs of spaces counted as one); ``...``
 lines are skipped. A block that starts with ``{`` is a JSON fragment: each ``"key": value``
 shown must be in the printed JSON object, numbers to the digits shown.
 
-The commands run in bash in a fresh folder holding links to the repository's ``docs`` and
-``tests`` (so ``tests/data/...`` resolves as in a clone), with ``damjax`` the damjax under
-test. Examples are marked where they run in seconds; the pages give the run time and the
-output of the others.
+Figures in an expected output may be result markers (``{{ result(...) }}``,
+docs/results_hook.py): they are compared as the site shows them.
+
+The commands run in bash (a python block: as a script of the python running the tests) in
+a fresh folder holding links to the repository's ``docs`` and ``tests`` (so
+``tests/data/...`` resolves as in a clone), with ``damjax`` the damjax under test.
+Examples are marked where they run in seconds; the pages give the run time and the output
+of the others.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import os
@@ -34,19 +39,30 @@ ROOT = Path(__file__).resolve().parent.parent
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 MARK = re.compile(
     r"<!-- ci-example(?::(?P<opts>[^>]*))? -->\s*\n"
-    r"```(?:bash|console)\n(?P<code>.*?)```[ \t]*\n"
+    r"```(?P<lang>bash|console|python)\n(?P<code>.*?)```[ \t]*\n"
     r"(?:[ \t]*\n```text\n(?P<out>.*?)```)?",
     re.S,
 )
 
 
+def _results_hook():
+    spec = importlib.util.spec_from_file_location(
+        "damjax_results_hook", ROOT / "docs" / "results_hook.py"
+    )
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    return hook
+
+
 def _examples() -> list[tuple[str, str, dict[str, str], str | None]]:
+    substitute = _results_hook().substitute  # markers stay on their line
     found = []
     for page in PAGES:
-        text = page.read_text(encoding="utf-8")
+        text = substitute(page.read_text(encoding="utf-8"))
         for m in MARK.finditer(text):
             line = text.count("\n", 0, m.start()) + 1
             opts = dict(kv.split("=", 1) for kv in (m["opts"] or "").split())
+            opts["lang"] = m["lang"]
             found.append((f"{page.relative_to(ROOT)}:{line}", m["code"], opts, m["out"]))
     return found
 
@@ -101,9 +117,13 @@ def test_docs_example_runs_as_written(where, code, opts, out, tmp_path):
         "MPLBACKEND": "Agg",
     }
     status = int(opts.get("status", "0"))
-    script = ("set -e\n" if status == 0 else "") + code
+    if opts["lang"] == "python":
+        (work / "example.py").write_text(code)
+        command = [sys.executable, "example.py"]
+    else:
+        command = ["bash", "-c", ("set -e\n" if status == 0 else "") + code]
     done = subprocess.run(
-        ["bash", "-c", script],
+        command,
         cwd=work,
         env=env,
         capture_output=True,

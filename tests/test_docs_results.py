@@ -39,15 +39,17 @@ def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
     hook = _hook()
     rows = [
         {"case": "a", "field": "f", "x": 1.25, "y": None},
-        {"case": "b", "x": -2.0, "y": "text", "z": [1.5, 2.5]},
+        {"case": "b", "x": -2.0, "y": "text", "z": [1.5, 2.5], "dx0.5": {"n": 3}},
     ]
     (tmp_path / "toy.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     monkeypatch.setattr(hook, "RESULTS", tmp_path)
     assert hook.substitute('{{ result("toy", "x", case="a", digits=1) }} m') == "1.2 m"
     assert hook.substitute('{{ result("toy", "x", case="a", scale=100, sign=True) }}') == "+125.0"
     assert hook.substitute('{{ result("toy", "x", case="b", unit=" m") }}') == "-2.0 m"
+    assert hook.substitute('{{ result("toy", "x", case="a", scale=4/10*2, digits=2) }}') == "1.00"
     assert hook.substitute('{{ result("toy", "x", field="f") }}') == "1.25"  # a column "field"
     assert hook.substitute('{{ result("toy", "z.-1", case="b") }}') == "2.5"
+    assert hook.substitute('{{ result("toy", "dx0.5.n", case="b") }}') == "3"  # a dotted key
     assert hook.substitute(
         '{{ result("toy", "y", case="a", unit=" m", none="runs through") }}'
     ) == ("runs through")
@@ -56,12 +58,15 @@ def test_a_marker_that_does_not_resolve_stops_the_build(tmp_path, monkeypatch):
         ('{{ result("nope", "x") }}', "no results file results/nope.jsonl"),
         ('{{ result("toy", "z", case="a") }}', "no field 'z'"),
         ('{{ result("toy", "z.2", case="b") }}', "no field 'z.2'"),
+        ('{{ result("toy", "dx0.5.m", case="b") }}', "no field 'dx0.5.m'"),
         ('{{ result("toy", "x") }}', "2 rows match"),
         ('{{ result("toy", "x", case="c") }}', "0 rows match"),
         ('{{ result("toy", "y", case="a") }}', "is null"),
         ('{{ figure("toy", "x") }}', "unknown marker 'figure'"),
         ('{{ result("toy") }}', "takes two names"),
         ('{{ result("toy", "x", case=a) }}', "cannot read"),
+        ('{{ result("toy", "x", case="a", scale=1-2) }}', "cannot read"),
+        ('{{ result("toy", "x", case="a", scale="2") }}', "not a number"),
         ('{{ result("toy", "x",\ncase="a") }}', "does not close on its line"),
     ):
         with pytest.raises(hook.ResultError, match=re.escape(needle)):

@@ -195,7 +195,7 @@ def test_a_slope_scenario_reads_its_fields_and_builds_its_model_once(tmp_path, m
     from damjax.core import model
     from damjax.scenario import slope_fields
 
-    calls = {"resolve_fields": 0, "build_slope": 0}
+    calls = {"resolve_inputs": 0, "build_slope": 0}
 
     def counted(module, name):
         f = getattr(module, name)
@@ -206,10 +206,10 @@ def test_a_slope_scenario_reads_its_fields_and_builds_its_model_once(tmp_path, m
 
         monkeypatch.setattr(module, name, wrapper)
 
-    counted(slope_fields, "resolve_fields")
+    counted(slope_fields, "resolve_inputs")
     counted(model, "build_slope")
     # the names bound where they are called
-    monkeypatch.setattr("damjax.scenario.slope.resolve_fields", slope_fields.resolve_fields)
+    monkeypatch.setattr("damjax.scenario.slope.resolve_inputs", slope_fields.resolve_inputs)
     monkeypatch.setattr("damjax.slope.simulation.build_slope", model.build_slope)
     doc = scenario.schema.tomllib.loads(scenario.shipped()["slope-quick"].read_text())
     doc["setup"].update(duration=0.05, chunk_steps=20)
@@ -217,4 +217,4 @@ def test_a_slope_scenario_reads_its_fields_and_builds_its_model_once(tmp_path, m
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         runner.run(scenario.parse(doc), tmp_path / "out")
-    assert calls == {"resolve_fields": 1, "build_slope": 1}
+    assert calls == {"resolve_inputs": 1, "build_slope": 1}

@@ -34,6 +34,7 @@ def _toy_data(tmp_path, **terrain) -> dict:
     lib = scenario.resolve("real-path-avakot")
     data = tomllib.loads(lib.read_text())
     data["terrain"]["file"] = str(KOT / "dem.tif")
+    data["terrain"].pop("buffer", None)  # the rectangle of the polygon plus a margin
     data["terrain"]["margin"] = 2.0
     data["terrain"].update(terrain)
     data["setup"]["duration"] = 0.1

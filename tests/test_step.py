@@ -77,7 +77,7 @@ def _phases_in_order(model, state):
     wl = sp.weak_layer_forces(model, state)
     sums = sp.particles_to_grid(model, state, wl, mass)
     grid = sp.grid_update(model, sums, mass)
-    motion = sp.grid_to_particles(model, state, sums.stencil, grid.velocity)
+    motion = sp.grid_to_particles(model, state, sums.stencil, grid.velocity, sums.active)
     slab = sp.slab_law(model, state, motion.C)
     crack = sp.crack_and_saw(model, state, motion.u, wl.time, wl.saw_pos)
     faults = sp.guards(model, state, sums.stencil, grid.speed2, slab.eps, wl.time)
@@ -86,6 +86,7 @@ def _phases_in_order(model, state):
         u=motion.u,
         v=motion.v,
         C=motion.C,
+        outflow=motion.outflow,
         eps=slab.eps,
         sigma=slab.sigma,
         eps_p=slab.eps_p,

@@ -2,10 +2,10 @@
 
 For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
 
-1. damjax runs the shipped scenario ``real-path-ava<path>`` (the documented release polygon
-   plus 10 m on its DEM, slab thickness from the polygon, GRF weak layer, dx 0.46 m, the
-   coarsest the model accepts) as an ensemble of ``--members`` GRF seeds (``--members 1``:
-   a single run, seed 0);
+1. damjax runs the shipped scenario ``real-path-ava<path>`` (the terrain within 150 m of
+   the documented release polygon on its DEM, no slab above 60 deg, slab thickness from
+   the polygon, a stability-ratio weak layer, dx 0.46 m, the coarsest the model accepts)
+   as an ensemble of ``--members`` seeds (``--members 1``: a single run, seed 0);
 2. the release (cells released in >= half the members) against the documented polygon:
    area ratio, overlap (intersection over union), recall / precision, crown position
    relative to the polygon's upper edge along the surface;
@@ -24,10 +24,10 @@ For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
     python -m verification.real_path --path avaKot --run-dir DIR  # reuse a run / ensemble
     python verification/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
 
-Cost on the 2-core development machine (shared, 2026-11-26): about 5e5 particle-steps/s,
-so a member of avaKot (1.9e5 particles, 3 s, 1800 steps) takes ~12 min, of avaAlr
-(4.3e5 particles, 4 s, 2400 steps) ~35 min; 16 members are hours per path there
-(docs/guide/real-path.md has what was run).
+Cost on the 2-core development machine (shared, 2026-11-27): one avaAlr member (1.31e6
+particles, 4 s, 2800 steps) took 25 min (about 15 min on a quiet machine), an avaKot
+member (1.0e6 particles, 3 s) about three quarters of that; 16 members are hours per path
+there (docs/guide/real-path.md has what was run).
 """
 
 from __future__ import annotations
@@ -201,13 +201,39 @@ def release_metrics(scn: Any, prob: np.ndarray, x: np.ndarray, y: np.ndarray) ->
     return out
 
 
+def terrain_metrics(folder: Path, ds: Any) -> dict[str, Any]:
+    """Per member (a run's ``summary.json``, an ensemble's member variables): the share
+    of the release's boundary on the domain's edge, the sources of the arrival-time map,
+    the area failing at t = 0 and the outflow; for an ensemble also how many members
+    stay below 5 % on the edge and have one source."""
+    keys = ("domain_edge_fraction", "arrival_sources", "initial_failure_area_m2",
+            "outflow_area_m2")  # fmt: skip
+    if "member" in ds.dims:
+        out: dict[str, Any] = {
+            k: [None if not np.isfinite(v) else float(v) for v in ds[k].values]
+            for k in keys
+            if k in ds
+        }
+        if "domain_edge_fraction" in ds:
+            edge = np.asarray(ds["domain_edge_fraction"].values, float)
+            out["members_edge_below_5pc"] = int(np.sum(np.nan_to_num(edge, nan=1.0) <= 0.05))
+        if "arrival_sources" in ds:
+            out["members_one_source"] = int(np.sum(ds["arrival_sources"].values == 1))
+        return out
+    summ = Path(folder, "summary.json")
+    if not summ.is_file():
+        return {}
+    sj = json.loads(summ.read_text())
+    return {k: sj.get(k) for k in keys if k in sj}
+
+
 # ------------------------------------------------------------------ damjax's side
 
 
 def toy_scenario(path: str, folder: Path, size: float = 20.0, duration: float = 0.2) -> Any:
     """A toy version of a path's scenario (seconds on a CPU): a ``size`` m square release
     polygon (GeoJSON in ``folder``, the documented polygon's CRS and thickness) around the
-    documented polygon's representative point, 2 m margin, ``duration`` s."""
+    documented polygon's representative point, 2 m of terrain around it, ``duration`` s."""
     import tomllib
     import warnings
 
@@ -232,7 +258,7 @@ def toy_scenario(path: str, folder: Path, size: float = 20.0, duration: float = 
     data["name"] = f"{scenario_name(path)}-toy"
     data["terrain"]["file"] = str((lib.parent / data["terrain"]["file"]).resolve())
     data["terrain"]["release"] = str(poly)
-    data["terrain"]["margin"] = 2.0
+    data["terrain"]["buffer"] = 2.0
     data["setup"]["duration"] = duration
     data["setup"]["chunk_steps"] = 50
     with warnings.catch_warnings():
@@ -365,8 +391,10 @@ def run_path(
         scn = scenario if scenario is not None else scenarios.load(scenario_name(path))
     row: dict[str, Any] = {"benchmark": "real_path", "path": path, "scenario": scn.name}
     s = scn.setup
+    cover = scenarios.prepared(scn).cover  # the snow-covered cells hold the particles
     n_cells = int(round(s.length / s.dx)) * int(round(s.width / s.dx))
-    row.update(dx_m=s.dx, duration_s=s.duration, particles=n_cells, members=members)
+    n_particles = n_cells if cover is None else int(cover.sum())
+    row.update(dx_m=s.dx, duration_s=s.duration, particles=n_particles, members=members)
     if run_dir is not None:
         folder, ds = run_dir, load_run(run_dir)
         row["reused_run"] = str(run_dir)
@@ -383,6 +411,7 @@ def run_path(
     x, y = np.asarray(ds["x"].values), np.asarray(ds["y"].values)
     prob = np.asarray(ds["release_probability"].values, dtype=float)
     row.update({k: round(v, 4) for k, v in release_metrics(scn, prob, x, y).items()})
+    row.update(terrain_metrics(folder, ds))
     pfts: dict[str, Path] = {"reference": DATA / path / "reference_pft.tif"}
     python = _avaframe_python() if avaframe else None
     if python:

@@ -70,8 +70,9 @@ def outline(ds: Any, times: tuple[float, ...] = OUTLINE_TIMES) -> list[dict[str,
     y, x = ds["y"].values, ds["x"].values
     dx = float(x[1] - x[0])
     out = []
+    half = 0.5 * float(t_snap[-1] - t_snap[-2]) if len(t_snap) > 1 else 1e-6
     for t in times:
-        if t > t_snap[-1] + 1e-6:
+        if t > t_snap[-1] + half:  # past the run (its last snapshot may fall just short)
             break
         k = int(np.argmin(np.abs(t_snap - t)))
         rel = ds["released_snapshots"].values[k] > 0.5

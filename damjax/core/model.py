@@ -31,7 +31,16 @@ from damjax.constants import G_ACC
 from damjax.core import transfer
 from damjax.core.state import Model, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
-from damjax.params import FALL_DEG_SPEC, PSTParams, PSTSetup, SlopeSetup, is_plastic, specs
+from damjax.params import (
+    FALL_DEG_SPEC,
+    STABILITY_SPEC,
+    WL_FRICTION_SPEC,
+    PSTParams,
+    PSTSetup,
+    SlopeSetup,
+    is_plastic,
+    specs,
+)
 
 SAW_LEAD = 0.5  # the saw stops once the crack leads it by this much [m]
 
@@ -299,6 +308,7 @@ def _model_and_state(
     frac0: np.ndarray,
     saw_coord: Any,
     dt: Any,
+    thickness: Any = None,
     area0: float,
     plastic: bool,
     tensile_strength: Any,
@@ -311,13 +321,15 @@ def _model_and_state(
     tau_peak: Any,
     u_res: Any,
     preload: Callable[[], tuple[Any, Any]],
+    outflow: bool = False,
 ) -> tuple[Model, State]:
     """The `Model` and its initial `State` of a PST or a slope, from the fields at the
     particles (n of them) that `build` and `build_slope` make in their own ways.
 
     ``cell0``, ``frac0``: the particles' reference cells and offsets (dim, n);
     ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
-    its runtime checks; ``area0``: the reference column-base area
+    its runtime checks; ``thickness``: h0 [m], a scalar or (n,) per particle (None:
+    ``params.thickness``); ``area0``: the reference column-base area
     per particle [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa],
     ``fracture_energy`` G_f [J/m^2], ``slab_fields``: the slab law and the static
     slab-fracture fields (`_slab_fracture`); ``psi``: the slope
@@ -327,7 +339,8 @@ def _model_and_state(
     residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium with
     an unstressed slab, (dim, n), and its magnitude, (n,) [m]. Everything else comes
     from ``params`` and ``setup``. The derived constants (front width, w_c) are derived
-    once here, not every step.
+    once here, not every step. ``outflow``: a particle that slides over the grid's edge
+    leaves the run (`State.outflow`) instead of stopping it with a fault.
 
     ``preload`` is called after the model is made: reverse mode sums the cotangents of a
     traced parameter (K, rho, psi) in the reverse order of its uses, so that order is
@@ -348,7 +361,7 @@ def _model_and_state(
         saw_coord=saw_coord,
         dt=dt,
         density=f(params.density),
-        thickness=f(params.thickness),
+        thickness=f(params.thickness) if thickness is None else thickness,
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
@@ -396,6 +409,7 @@ def _model_and_state(
         tip=f(0.0),
         fault=jnp.asarray(0, jnp.int32),
         fault_time=f(jnp.nan),
+        outflow=jnp.zeros((n,), bool) if outflow else None,
     )
     return model, state
 
@@ -544,6 +558,86 @@ def _bilinear(field: Any, xp: np.ndarray, yp: np.ndarray, dx: float) -> Any:
     )
 
 
+def slope_particles(
+    setup: SlopeSetup, pad: tuple[int, int] = (0, 0), cover: Any = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The particles of a slope run: (cell0 (2, n) grid cells, frac0 (2, n) offsets in
+    them, xp, yp (n,) reference positions [m]), x-major, ``particles_per_cell`` per cell
+    and axis; where ``cover`` ((nx, ny) bool, the snow-covered cells) is given, only in
+    its cells (a cell without snow holds no particle and costs no particle work)."""
+    dx, ppc = setup.dx, setup.particles_per_cell
+    nx, ny = int(round(setup.length / dx)), int(round(setup.width / dx))
+    sub = (np.arange(ppc) + 0.5) / ppc
+    cx, fx = np.repeat(np.arange(nx), ppc), np.tile(sub, nx)
+    cy, fy = np.repeat(np.arange(ny), ppc), np.tile(sub, ny)
+    cell = np.stack([np.repeat(cx, cy.size), np.tile(cy, cx.size)])
+    frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
+    if cover is not None:
+        keep = np.asarray(cover, bool)[cell[0], cell[1]]
+        cell, frac0 = cell[:, keep], frac0[:, keep]
+    xp = (cell[0] + frac0[0]) * dx
+    yp = (cell[1] + frac0[1]) * dx
+    cell0 = cell + np.asarray(pad, dtype=cell.dtype)[:, None]
+    return cell0, frac0, xp, yp
+
+
+def slope_particle_fields(
+    params: PSTParams,
+    setup: SlopeSetup,
+    xp: np.ndarray,
+    yp: np.ndarray,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any = 0.0,
+    *,
+    thickness: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+) -> dict[str, Any]:
+    """The terrain, snow and weak-layer fields at the particles (reference positions xp,
+    yp [m]; maps at cell centres interpolated bilinearly): ``psi`` and ``fall`` [rad],
+    ``thickness`` h0 [m] (a scalar: ``params.thickness`` when ``thickness`` is None),
+    ``tau_g`` = rho g h0 sin(psi), the gravitational shear the layer carries [Pa], and
+    ``tau_peak`` [Pa]: the map ``tau_peak``; or S tau_g with ``stability`` S (a map of
+    tau_p / tau_g: the layer's strength follows its own load); plus, with ``wl_friction``
+    (a coefficient mu, scalar or map), mu rho g h0 cos(psi) (cohesion plus friction on the
+    slab's normal stress; ``tau_peak`` is then the cohesion).
+    """
+    dtype = jnp.dtype(setup.dtype)
+    f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
+    dx = setup.dx
+    psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
+    fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
+    if thickness is None:
+        h = f(params.thickness)
+    elif jnp.ndim(thickness) == 0:  # a uniform slab: the scalar model
+        h = f(thickness)
+    else:
+        h = _bilinear(jnp.asarray(thickness, dtype), xp, yp, dx).astype(dtype)
+    rho_g_h = f(params.density) * G_ACC * h
+    tau_g = rho_g_h * jnp.sin(psi)
+    if stability is not None:
+        tau_p = _bilinear(jnp.asarray(stability, dtype), xp, yp, dx).astype(dtype) * tau_g
+    else:
+        tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
+    if wl_friction is not None:
+        mu = _bilinear(jnp.asarray(wl_friction, dtype), xp, yp, dx).astype(dtype)
+        tau_p = tau_p + mu * rho_g_h * jnp.cos(psi)
+    return {"psi": psi, "fall": fall, "thickness": h, "tau_g": tau_g, "tau_peak": tau_p}
+
+
+def uniform_value(field: Any) -> Any:
+    """A concrete map whose cells all hold one value as that value (a float: the scalar
+    model, bitwise that of a scalar input); anything else as it is."""
+    if field is None or is_traced(field) or np.ndim(field) == 0:
+        return field
+    a = np.asarray(field)
+    flat = a.ravel()
+    if flat.size and np.all(flat == flat[0]):
+        return float(flat[0])
+    return field
+
+
 def build_slope(
     params: PSTParams,
     setup: SlopeSetup,
@@ -551,19 +645,32 @@ def build_slope(
     slope_deg: Any,
     tau_peak: Any,
     fall_deg: Any = 0.0,
+    *,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    outflow: bool = True,
 ) -> tuple[Model, State, np.ndarray, np.ndarray]:
-    """Model, initial state and the particles' reference positions (x, y) [m]."""
+    """Model, initial state and the particles' reference positions (x, y) [m].
+
+    Snow and weak layer (`slope_particle_fields`): ``thickness`` (a map of h0 [m] at the
+    cell centres, normal to the slope; None: the scalar ``params.thickness``, the model
+    of a uniform slab), ``cover`` ((nx, ny) bool: particles only in these cells; None:
+    every cell), ``stability`` (S = tau_p / tau_g: tau_p follows each particle's own load;
+    None: ``tau_peak`` [Pa]) and ``wl_friction`` (a friction coefficient added to the
+    strength: tau_p + mu rho g h0 cos psi). ``outflow``: a particle that slides over the
+    grid's edge leaves the run (`State.outflow`) instead of stopping it with a fault.
+    The inputs are valid (checked at the edge, `damjax.slope.simulation.prepare`: a cover
+    with snow on some cell, and none with holes under a "crack_band" slab, whose band
+    openings sum over the particles' lattice).
+    """
     dtype = jnp.dtype(setup.dtype)
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     dx, ppc = setup.dx, setup.particles_per_cell
     nx, ny = layout.n_cells
-    sub = (np.arange(ppc) + 0.5) / ppc
-    cx, fx = np.repeat(np.arange(nx), ppc), np.tile(sub, nx)
-    cy, fy = np.repeat(np.arange(ny), ppc), np.tile(sub, ny)
-    cell0 = np.stack([np.repeat(cx, cy.size) + layout.pad[0], np.tile(cy, cx.size) + layout.pad[1]])
-    frac0 = np.stack([np.repeat(fx, fy.size), np.tile(fy, fx.size)])
-    xp = (cell0[0] - layout.pad[0] + frac0[0]) * dx
-    yp = (cell0[1] - layout.pad[1] + frac0[1]) * dx
+    thickness = uniform_value(thickness)  # a uniform map is the scalar model
+    cell0, frac0, xp, yp = slope_particles(setup, layout.pad, cover)
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
@@ -578,12 +685,24 @@ def build_slope(
         (setup.length, setup.width),
         lattice_for_paper=False,
     )
-    psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
-    fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
-    tau_p = _bilinear(jnp.asarray(tau_peak, dtype), xp, yp, dx).astype(dtype)
+    pf = slope_particle_fields(
+        params,
+        setup,
+        xp,
+        yp,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        thickness=thickness,
+        stability=stability,
+        wl_friction=wl_friction,
+    )
+    psi, fall, tau_p, h0 = pf["psi"], pf["fall"], pf["tau_peak"], pf["thickness"]
     # traced values outside their ranges stop the run
     table = {**specs(PSTParams), "fall_deg": FALL_DEG_SPEC}
+    table.update(stability=STABILITY_SPEC, wl_friction=WL_FRICTION_SPEC)
     maps = dict(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
+    maps.update(thickness=thickness, stability=stability, wl_friction=wl_friction)
     checks = _param_checks(params) + traced_checks(maps, table, "cell")
     dt = _checked(f(setup.duration / layout.n_steps), checks)
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
@@ -594,7 +713,7 @@ def build_slope(
     x0, y0 = setup.start
 
     def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -rho h g_t
-        u0 = (f(params.density) * f(params.thickness) / K) * g_t
+        u0 = (f(params.density) * h0 / K) * g_t
         return u0, mcc._sqrt(jnp.sum(u0 * u0, axis=0))  # finite gradient on a flat cell
 
     model, state = _model_and_state(
@@ -608,6 +727,7 @@ def build_slope(
         frac0=frac0,
         saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
         dt=dt,
+        thickness=h0,
         area0=(dx / ppc) ** 2,
         plastic=plastic,
         tensile_strength=tensile,
@@ -620,5 +740,6 @@ def build_slope(
         tau_peak=tau_p,
         u_res=u_res,
         preload=preload,
+        outflow=outflow,
     )
     return model, state, xp, yp

@@ -70,7 +70,9 @@ class Model(eqx.Module):
     # time step and slab
     dt: Any  # [s] (traced: a new E never recompiles)
     density: Any  # rho [kg/m^3]
-    thickness: Any  # h0 [m]
+    # h0 [m]: a scalar (a uniform slab, every PST), or (n,) per particle (a slope's snow
+    # cover from the terrain or a depth map, `damjax.core.model.build_slope`)
+    thickness: Any
     area0: Any  # reference column-base area per particle [m^2] (1D: per unit width)
     youngs_modulus: Any
     poisson: Any
@@ -116,9 +118,13 @@ class Model(eqx.Module):
     # they are used, in every step
     front_width: Any = None
     band_w_c: Any = None
+    # the smallest particle mass [kg] where the thickness is per particle (None with a
+    # scalar thickness: every particle weighs `mass`): the grid's empty-node threshold
+    mass_ref: Any = None
 
     def with_constants(self) -> Model:
-        """This model with `front_width` and `band_w_c` derived from its fields."""
+        """This model with `front_width`, `band_w_c` and `mass_ref` derived from its
+        fields."""
         spacing = self.area0 if len(self.grid_shape) == 1 else jnp.sqrt(self.area0)
         lam = jnp.sqrt(
             self.youngs_modulus
@@ -128,14 +134,18 @@ class Model(eqx.Module):
         w_c = mcc.crack_band_opening(
             self.p0_init, self.fracture_energy, self.mcc_m, self.mcc_beta, self.mcc_invariants
         )
+        mass_ref = None if jnp.ndim(self.thickness) == 0 else jnp.min(self.mass)
         return dataclasses.replace(
-            self, front_width=weak_layer.front_width(self.u_res, spacing, lam), band_w_c=w_c
+            self,
+            front_width=weak_layer.front_width(self.u_res, spacing, lam),
+            band_w_c=w_c,
+            mass_ref=mass_ref,
         )
 
     def with_fields(self, **changes: Any) -> Model:
         """This model with fields replaced (``u_res=...``, ``p0_init=...``; traceable) and
         the derived constants derived again: the way to change a built model."""
-        derived = {"front_width", "band_w_c"} & set(changes)
+        derived = {"front_width", "band_w_c", "mass_ref"} & set(changes)
         if derived:
             raise ValueError(f"with_fields: {sorted(derived)} are derived, not set")
         return dataclasses.replace(self, **changes).with_constants()
@@ -153,7 +163,8 @@ class Model(eqx.Module):
 
     @property
     def mass(self) -> Any:
-        """Particle mass rho h0 A0 [kg] (constant: h A = h0 A0)."""
+        """Particle mass rho h0 A0 [kg] (constant: h A = h0 A0); (n,) where the thickness
+        is per particle."""
         return self.density * self.thickness * self.area0
 
 
@@ -180,3 +191,7 @@ class State(eqx.Module):
     tip: Any  # furthest saw_coord where the layer has lost all cohesion [m]
     fault: Any  # int32 bit flags, FAULT_*
     fault_time: Any  # simulated time of the first fault [s] (nan if none)
+    # (n,) bool: particles that slid out over the grid's edge (outflow: they no longer
+    # interact and stay where they left). None: no outflow, a particle reaching the edge
+    # is a fault (FAULT_EDGE; every PST)
+    outflow: Any = None

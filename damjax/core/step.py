@@ -145,6 +145,7 @@ class GridSums(NamedTuple):
     """The particles' sums on the grid (`particles_to_grid`)."""
 
     stencil: transfer.Stencil  # the particles' B-spline stencil (weights, offsets, cells)
+    active: Any  # (n,) bool: the particles still on the grid (None: all; `State.outflow`)
     mass: Any  # (n_nodes,) node mass [kg]
     momentum: Any  # dim rows (n_nodes,) of node momentum after the particle forces [kg m/s]
     cap: Any  # (n_nodes,) friction cap: the Coulomb force the nodes can resist [N]
@@ -163,6 +164,7 @@ class Motion(NamedTuple):
     u: Any  # (dim, n) displacement [m]
     v: Any  # (dim, n) velocity [m/s]
     C: Any  # (dim, dim, n) affine velocity [1/s]
+    outflow: Any  # (n,) bool: the particles that slid over the grid's edge (None: no outflow)
 
 
 class SlabUpdate(NamedTuple):
@@ -198,7 +200,7 @@ def step(model: Model, state: State) -> State:
     wl = weak_layer_forces(model, state)
     sums = particles_to_grid(model, state, wl, mass)
     grid = grid_update(model, sums, mass)
-    motion = grid_to_particles(model, state, sums.stencil, grid.velocity)
+    motion = grid_to_particles(model, state, sums.stencil, grid.velocity, sums.active)
     slab_new = slab_law(model, state, motion.C)
     crack = crack_and_saw(model, state, motion.u, wl.time, wl.saw_pos)
     faults = guards(model, state, sums.stencil, grid.speed2, slab_new.eps, wl.time)
@@ -252,11 +254,14 @@ def weak_layer_forces(model: Model, state: State) -> WeakLayerForces:
 def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any) -> GridSums:
     """Phase 2, P2G: node mass [kg], momentum after dt times every particle force
     [kg m/s] (gravity and cohesion, ``wl.acc``; the internal force folded into the affine
-    term) and the friction cap of the failed weak layer [N], on the particles' stencil.
-    ``mass``: the particle mass [kg] (`Model.mass`)."""
+    term) and the friction cap of the failed weak layer [N], on the particles' stencil;
+    particles that left the grid (`State.outflow`) add nothing. ``mass``: the particle
+    mass [kg] (`Model.mass`)."""
     with jax.named_scope("p2g"):
         dim, dx, dt = model.dim, model.dx, model.dt
         m, inv_d = mass, _inv_d(dx)
+        # outflow (slopes): particles that slid over the grid's edge add nothing to the grid
+        active = None if state.outflow is None else ~state.outflow
         sig = stress_tensor(state.sigma, dim)
         c_sig = dt * inv_d * model.thickness * model.area0
         affine = [[m * state.C[a, b] - c_sig * sig[a][b] for b in range(dim)] for a in range(dim)]
@@ -273,7 +278,10 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
         st = transfer.stencil(model.cell0, model.frac0, u_p2g, dx, model.grid_shape, model.periodic)
         n_nodes = model.n_nodes
         S = len(st.w)
-        mass_rows = [st.w[k] * m for k in range(S)]
+        w_p2g = st.w
+        if active is not None:  # times exactly 1 or 0: a run without outflow is unchanged
+            w_p2g = tuple(w * active.astype(w.dtype) for w in st.w)
+        mass_rows = [w_p2g[k] * m for k in range(S)]
         mom_rows = []
         for a in range(dim):
             mv = m * v_star[a]
@@ -282,9 +290,9 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
                 q = mv
                 for b in range(dim):
                     q = q + affine[a][b] * st.dpos[k][b]
-                rows.append(st.w[k] * q)
+                rows.append(w_p2g[k] * q)
             mom_rows.append(rows)
-        cap_rows = [st.w[k] * fcap for k in range(S)]
+        cap_rows = [w_p2g[k] * fcap for k in range(S)]
         # mass, momentum and cap (on a CPU in complex pairs: half the scatters); fixed-point
         # sums take their scales from per-particle bounds of the rows (w <= 1, |dpos| <=
         # 1.5 dx), cheaper than the maxima of the rows themselves
@@ -309,19 +317,20 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
         # named for the reverse pass: `integrate_pure` keeps these small grid arrays per
         # step and so does not redo the P2G scatters when it recomputes a step
         grid_mass, grid_mom, grid_cap = checkpoint_name((grid_mass, grid_mom, grid_cap), "p2g")
-        return GridSums(st, grid_mass, grid_mom, grid_cap)
+        return GridSums(st, active, grid_mass, grid_mom, grid_cap)
 
 
 def grid_update(model: Model, sums: GridSums, mass: Any) -> GridVelocity:
     """Phase 3, the grid: node velocities p / m [m/s] with the Coulomb friction cap as an
     impulse (|v| shrinks by dt F_cap / m, never past zero). ``mass``: the particle mass
-    [kg] (`Model.mass`), the scale of the empty-node threshold."""
+    [kg] (`Model.mass`), the scale of the empty-node threshold (`Model.mass_ref` where the
+    thickness is per particle)."""
     with jax.named_scope("grid_update"):
         dt = model.dt
         # nodes holding less than 1e-6 of a particle's mass count as empty: their velocity
         # p / m is ill-conditioned, and in 2D reverse mode the 1/m^2 of a node touched only
         # by a B-spline tail (weight ~1e-12) overflows float32 (0 * inf = NaN gradients)
-        has_mass = sums.mass > 1e-6 * mass
+        has_mass = sums.mass > 1e-6 * (mass if model.mass_ref is None else model.mass_ref)
         m_safe = jnp.where(has_mass, sums.mass, 1.0)
         inv_m = jnp.where(has_mass, 1.0 / m_safe, 0.0)
         vg = [p * inv_m for p in sums.momentum]
@@ -336,10 +345,14 @@ def grid_update(model: Model, sums: GridSums, mass: Any) -> GridVelocity:
         return GridVelocity(vg, speed2)
 
 
-def grid_to_particles(model: Model, state: State, st: transfer.Stencil, velocity: Any) -> Motion:
+def grid_to_particles(
+    model: Model, state: State, st: transfer.Stencil, velocity: Any, active: Any = None
+) -> Motion:
     """Phase 4, G2P: the particles' velocity [m/s] and affine velocity [1/s] from the node
     velocities ``velocity`` on their stencil ``st``, and the displacement [m] they move
-    (rows kept separate: sums over the stencil are elementwise adds)."""
+    (rows kept separate: sums over the stencil are elementwise adds). With outflow
+    (``active``: the particles still on the grid, `GridSums.active`), a particle whose
+    stencil would leave the grid stops there and leaves the run."""
     with jax.named_scope("g2p"):
         dim, inv_d = model.dim, _inv_d(model.dx)
         S = len(st.w)
@@ -357,7 +370,17 @@ def grid_to_particles(model: Model, state: State, st: transfer.Stencil, velocity
         v_new = jnp.stack(v_rows)
         C_new = jnp.stack([jnp.stack(r) for r in C_rows])
         u_new = state.u + model.dt * v_new
-        return Motion(u_new, v_new, C_new)
+        outflow = state.outflow
+        if active is not None:
+            # a particle whose stencil would leave the grid in this step stays where it was
+            # and leaves the run (outflow); one that left earlier is at rest and unstrained
+            leaving = _off_grid(model, u_new) & active
+            outflow = state.outflow | leaving
+            moving_p = active & ~leaving
+            v_new = jnp.where(moving_p, v_new, 0.0)
+            C_new = jnp.where(active, C_new, 0.0)
+            u_new = jnp.where(moving_p, u_new, state.u)
+        return Motion(u_new, v_new, C_new, outflow)
 
 
 def slab_law(model: Model, state: State, C: Any) -> SlabUpdate:
@@ -426,6 +449,21 @@ def guards(
         fault = state.fault | fault
         fault_time = jnp.where((state.fault == 0) & (fault != 0), time, state.fault_time)
         return Faults(fault, fault_time)
+
+
+def _off_grid(model: Model, u: Any) -> Any:
+    """(n,) bool: particles whose stencil at displacement ``u`` would reach past the
+    grid's non-periodic edges (the runtime guard's test, `guards`)."""
+    out = None
+    for d in range(model.dim):
+        if model.periodic[d]:
+            continue
+        base = model.cell0[d] + jnp.floor(model.frac0[d] + u[d] * (1.0 / model.dx) - 0.5).astype(
+            jnp.int32
+        )
+        o = (base < 0) | (base > model.grid_shape[d] - 3)
+        out = o if out is None else out | o
+    return jnp.zeros(u.shape[1:], bool) if out is None else out
 
 
 def residual_shear(model: Model, state: State) -> Any:

@@ -26,7 +26,7 @@ from damjax.core.loop import (
     peak_bytes,
     run_chunk,
 )
-from damjax.core.model import build_slope, make_slope_layout
+from damjax.core.model import make_slope_layout
 from damjax.ensemble.plot import plot_ensemble
 from damjax.ensemble.products import (
     ENSEMBLE_FILE,
@@ -40,7 +40,9 @@ from damjax.ensemble.products import (
     slice_name,
 )
 from damjax.ensemble.spec import Ensemble, _is_int, key_of, member_draws, member_scenario
-from damjax.scenario.slope_fields import resolve_fields, simulate
+from damjax.scenario import prepared
+from damjax.scenario.slope_fields import resolve_inputs, simulate
+from damjax.slope.simulation import steepest_covered
 from damjax.validation import ensure_x64
 
 PLAN_FILE = "plan.json"
@@ -55,9 +57,9 @@ MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # --------------------------------------------------------------------------- planning
 
 
-def _resolve(scn: Any) -> tuple[Any, Any, np.ndarray, tuple[float, float]]:
+def _resolve(scn: Any) -> Any:
     try:
-        return resolve_fields(scn)
+        return resolve_inputs(scn)
     except ValueError as exc:  # a plain one-line ValueError
         raise ValueError(str(exc)) from None
 
@@ -66,8 +68,8 @@ def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
     """One layout for every member: the largest grid padding and the smallest time step
     any member needs (`damjax.core.model.make_slope_layout`)."""
     scn = ens.scenario
-    sl, _, _, _ = _resolve(scn)
-    max_slope = float(np.max(sl))
+    prep = prepared(scn)  # read and checked when the scenario was
+    max_slope = steepest_covered(prep.slope_deg, prep.cover)
     members = range(ens.members) if members is None else members
     layouts = []
     for i in members if (ens.params or ens.strength) else [0]:
@@ -97,10 +99,9 @@ def _build_members(ens: Ensemble, idx: list[int], layout: Any) -> tuple[Any, Any
     models, states, scns = [], [], []
     for i in idx:
         scn = member_scenario(ens, i)
-        sl, fall, tau, start = _resolve(scn)
-        setup = dataclasses.replace(scn.setup, start=start)
-        ensure_x64(setup.dtype)
-        m, s, _, _ = build_slope(scn.params, setup, layout, sl, tau, fall)
+        inp = _resolve(scn)
+        ensure_x64(scn.setup.dtype)
+        m, s = inp.build(scn, layout)
         models.append(m)
         states.append(s)
         scns.append(scn)

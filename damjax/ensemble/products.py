@@ -41,6 +41,11 @@ SUMMARY_KEYS = (
     "upslope_crack_speed_over_cs",
     "crossslope_crack_speed_over_cs",
     "start_slope_deg",
+    # a release on terrain (2026-11-27)
+    "domain_edge_fraction",
+    "initial_failure_area_m2",
+    "outflow_area_m2",
+    "arrival_sources",
 )
 # the fronts' states (strings: "arrested", "reached_edge", "moving", "sawn_only")
 STATE_KEYS = ("upslope_front", "crossslope_front")
@@ -76,6 +81,10 @@ _UNITS = {
     "upslope_crack_speed_over_cs": ("1", "peak up-slope crack speed over c_s"),
     "crossslope_crack_speed_over_cs": ("1", "peak cross-slope crack speed over c_s"),
     "start_slope_deg": ("degree", "slope angle at the start"),
+    "domain_edge_fraction": ("1", "share of the release's boundary on the domain's edge"),
+    "initial_failure_area_m2": ("m2", "weak layer failing under its own slab at t = 0"),
+    "outflow_area_m2": ("m2", "slab that slid out over the grid's edge"),
+    "arrival_sources": ("1", "sources of the arrival-time map (1: the trigger alone)"),
 }
 
 
@@ -126,7 +135,12 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         names = sorted(ens.params if part == 0 else ens.strength)
         for name in names:
             vals = [member_draws(ens, i)[part][name] for i in idx]
-            units = _param_units(name) if part == 0 else _STRENGTH_UNITS.get(name, "")
+            kind = (ens.scenario.strength or {"kind": "constant"})["kind"]
+            units = (
+                _param_units(name)
+                if part == 0
+                else _KIND_UNITS.get((kind, name), _STRENGTH_UNITS.get(name, ""))
+            )
             data[pre + name] = var(("member",), vals, units, f"drawn {name}")
     stack = lambda f: np.stack([f(r) for r in results])  # noqa: E731
     data["released"] = var(
@@ -178,7 +192,12 @@ _STRENGTH_UNITS = {
     "angle_deg": "degree",
     "trend_deg": "degree",
     "tau_peak": "Pa",
+    "cov": "1",
+    "cohesion": "Pa",
+    "friction_coefficient": "1",
 }
+# per strength kind where a setting's unit differs (a stability ratio's mean)
+_KIND_UNITS = {("stability", "mean"): "1"}
 
 
 def _param_units(name: str) -> str:

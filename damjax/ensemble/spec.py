@@ -28,7 +28,20 @@ STRENGTH_DRAWS = {
     "grf": ("mean", "mean_at", "trend", "std", "length_scale", "angle_deg", "trend_deg"),
     "constant": ("tau_peak", "trend"),
     "map": (),
+    "stability": ("mean", "cov", "length_scale", "angle_deg"),
+    "coulomb": ("cohesion", "friction_coefficient", "std", "length_scale", "angle_deg"),
 }
+# strength kinds whose random field follows strength.seed (a member's seed); with
+# strength.trigger = "random" the seed also places the trigger, whatever the kind
+SEEDED_KINDS = ("grf", "stability", "coulomb")
+
+
+def seeded(strength: dict[str, Any] | None) -> bool:
+    """Whether members of a scenario with this [strength] table differ by their seed."""
+    st = strength or {"kind": "constant"}
+    if st["kind"] == "coulomb" and not st.get("std", 0.0):  # a constant cohesion
+        return st.get("trigger") == "random"
+    return st["kind"] in SEEDED_KINDS or st.get("trigger") == "random"
 
 
 # --------------------------------------------------------------------------- distributions
@@ -329,7 +342,7 @@ def member_scenario(ens: Ensemble, i: int) -> Any:
     scn = ens.scenario
     pdraw, sdraw = member_draws(ens, i)
     strength = dict(scn.strength or {"kind": "constant"})
-    if strength["kind"] == "grf":
+    if seeded(strength):
         strength["seed"] = member_seed(ens, i)
     strength.update(sdraw)
     setup = scn.setup
@@ -343,10 +356,16 @@ def member_scenario(ens: Ensemble, i: int) -> Any:
 def _member_problems(ens: Ensemble) -> list[str]:
     out = []
     kind = (ens.scenario.strength or {"kind": "constant"})["kind"]
-    if ens.members > 1 and kind != "grf" and not ens.params and not ens.strength:
+    if (
+        ens.members > 1
+        and not seeded(ens.scenario.strength)
+        and not ens.params
+        and not ens.strength
+    ):
         out.append(
-            f'strength.kind = "{kind}": the members would be identical (give a "grf" '
-            "strength, whose seed differs per member, or [ensemble.params] distributions)"
+            f'strength.kind = "{kind}": the members would be identical (give a "grf" or '
+            '"stability" strength, whose seed differs per member, strength.trigger = '
+            '"random", or [ensemble.params] distributions)'
         )
     if ens.seeds is not None and len(ens.seeds) < ens.members:
         out.append(

@@ -272,14 +272,20 @@ def frame_of(
     u = UPSLOPE_AXES[upslope]
     v = (-u[1], u[0])
     o = tuple(float(c) for c in ter.get("origin", (0.0, 0.0)))
-    # the centre-line surface profile, as damjax.scenario's dem_fields builds it
-    a_max = float(x[-1]) + dx
-    a = np.linspace(0.0, a_max, max(2, int(math.ceil(a_max / 0.05)) + 1))
-    yc = 0.5 * (float(y[0]) + float(y[-1]))
-    z = t.sample(o[0] + u[0] * a + v[0] * yc, o[1] + u[1] * a + v[1] * yc)
-    if not np.all(np.isfinite(z)):
-        raise ValueError(f"{file}: missing DEM cells under the release area's centre line")
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(a), np.diff(z)))])
+    # the centre-line surface profile the run was built on (`dem_fields`). Clipped to the
+    # DEM, with missing cells bridged: the run's own profile where its domain is the
+    # terrain within a buffer (a rectangle that may leave the DEM), and the same as
+    # unclipped for a rectangle on the DEM (a run over missing cells did not start)
+    from damjax.scenario.slope_fields import centre_line_profile
+
+    try:
+        a, s = centre_line_profile(
+            t, float(x[-1]) + dx, 0.5 * (float(y[0]) + float(y[-1])), o, upslope, nodata=True
+        )
+    except ValueError:
+        raise ValueError(
+            f"{file}: missing DEM cells under the release area's centre line"
+        ) from None
     if s[-1] < nx * dx:
         raise ValueError(f"{file}: the release area's centre line leaves the DEM")
     return Frame(

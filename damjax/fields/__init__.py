@@ -18,6 +18,7 @@ from damjax.fields.grf import (
     grf,
     grid_coordinates,
     plateau_trend_field,
+    stability_field,
     trend_direction,
     trend_distance,
 )
@@ -59,6 +60,7 @@ __all__ = [
     "power_law_profile",
     "pst_profile",
     "pst_strength_profile",
+    "stability_field",
     "transect",
     "trend_direction",
     "trend_distance",

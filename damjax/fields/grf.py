@@ -332,6 +332,24 @@ def plateau_trend_field(
     expected = mean + trend * np.maximum(d - mean_at, 0.0)
     if std == 0.0:
         return np.broadcast_to(expected, (len(x), ny)).copy()
+    noise = _cell_noise(key, x, ny, dx, std, length_scale, angle_deg, model, field_dx)
+    return np.maximum(expected + noise, TAU_FLOOR)
+
+
+def _cell_noise(
+    key: Array,
+    x: np.ndarray,
+    ny: int,
+    dx: float,
+    std: float,
+    length_scale: ArrayLike,
+    angle_deg: float,
+    model: CovarianceModel,
+    field_dx: float | None,
+) -> np.ndarray:
+    """A zero-mean stationary `grf` sample of standard deviation ``std`` on the cells x
+    (nx,) by ny, drawn on cells of ``field_dx`` and interpolated when given
+    (`plateau_trend_field`)."""
     ls = np.asarray(length_scale, dtype=float)
     fdx = dx if field_dx is None else float(field_dx)
     if field_dx is not None and not (math.isfinite(fdx) and 0.0 < fdx <= 0.5 * float(np.min(ls))):
@@ -358,7 +376,43 @@ def plateau_trend_field(
     if field_dx is not None:
         xf, yf = ((np.arange(n) + 0.5) * fdx for n in shape)
         noise = map_on_grid(xf, yf, noise, x, (np.arange(ny) + 0.5) * dx)
-    return np.maximum(expected + noise, TAU_FLOOR)
+    return noise
+
+
+def stability_field(
+    key: Array,
+    x: np.ndarray,
+    ny: int,
+    dx: float,
+    *,
+    mean: float,
+    cov: float,
+    length_scale: ArrayLike,
+    angle_deg: float = 0.0,
+    model: CovarianceModel = "gaussian",
+    field_dx: float | None = None,
+) -> np.ndarray:
+    """A random field of the weak layer's stability ratio S = tau_p / tau_g on cell
+    centres x (nx,) by ny [-] (numpy), above 1 everywhere: a weak layer that held its slab
+    until the trigger.
+
+    S - 1 is log-normal, S = 1 + m exp(s Z - s^2 / 2), Z a zero-mean, unit-variance
+    stationary `grf` sample (correlation ``length_scale``, ``angle_deg``, ``model``, drawn
+    on ``field_dx`` cells as in `plateau_trend_field`), m = mean - 1 and s^2 = ln(1 +
+    (cov mean / m)^2): S has the expected value ``mean`` (> 1) and the standard deviation
+    ``cov`` x ``mean`` (the coefficient of variation ``cov`` >= 0). ``cov = 0``: S =
+    ``mean`` everywhere.
+    """
+    m = float(mean) - 1.0
+    if not (math.isfinite(m) and m > 0):
+        raise ValueError(f"mean = {mean!r}: must be in (1, inf)")
+    if not (math.isfinite(float(cov)) and cov >= 0):
+        raise ValueError(f"cov = {cov!r}: must be in [0, inf)")
+    if cov == 0.0:
+        return np.full((len(x), ny), float(mean))
+    s2 = math.log1p((float(cov) * float(mean) / m) ** 2)
+    z = _cell_noise(key, x, ny, dx, 1.0, length_scale, angle_deg, model, field_dx)
+    return 1.0 + m * np.exp(math.sqrt(s2) * z - 0.5 * s2)
 
 
 def _grf_host(

@@ -38,8 +38,9 @@ def check(
     """The Scenario of a PST document (None with problems appended) and its dubious-value
     notes. Top-level keys, type and name are checked by the caller (`schema.parse`); the
     values by `damjax.pst.prepare`, whose result the Scenario carries (`prepared`)."""
-    if "terrain" in data:
-        problems.append('terrain: only for type = "slope" scenarios')
+    for table in ("terrain", "snow"):
+        if table in data:
+            problems.append(f'{table}: only for type = "slope" scenarios')
     pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
     svals, sbad, _ = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)

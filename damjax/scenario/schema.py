@@ -104,6 +104,7 @@ TOP_KEYS = (
     "strength",
     "terrain",
     "profile",
+    "snow",  # slope scenarios: the snow cover (damjax.scenario.slope; 2026-11-27)
 )
 STRENGTH_KEYS = ("file", "fit", "points")
 PROFILE_KEYS = ("file", "weak_layer", "modulus", "vertical", "date", "use_strength")
@@ -172,6 +173,7 @@ class Scenario:
     type: str = "pst"
     terrain: dict[str, Any] | None = None  # slope scenarios: the [terrain] table
     strength: dict[str, Any] | None = None  # slope scenarios: the [strength] table
+    snow: dict[str, Any] | None = None  # slope scenarios: the [snow] table
     # the checked run the loader made (`prepared`); not copied by `dataclasses.replace`
     _prepared: Any = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
@@ -181,7 +183,7 @@ class Scenario:
         out["description"] = self.description
         out["params"] = io.plain_fields(self.params)
         out["setup"] = io.plain_fields(self.setup)
-        for table in ("terrain", "strength"):
+        for table in ("terrain", "strength", "snow"):
             if getattr(self, table) is not None:
                 out[table] = {k: io.plain(v) for k, v in getattr(self, table).items()}
         out["output"] = {
@@ -200,7 +202,7 @@ class Scenario:
         data = self.to_dict()
         for section, values in sections.items():
             if section in SECTIONS or (
-                section in ("terrain", "strength") and isinstance(data.get(section), dict)
+                section in ("terrain", "strength", "snow") and isinstance(data.get(section), dict)
             ):
                 data[section] = {**data.get(section, {}), **values}
             else:

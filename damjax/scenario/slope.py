@@ -32,6 +32,12 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     #   (the DEM axis pointing up-slope; y of the release area is that axis turned
     #   90 deg counter-clockwise). Local slope angle and fall direction come from the DEM
     #   gradient; x distances follow the surface along the area's centre line.
+    #   release = "polygon.shp": a release polygon (the DEM's CRS) sets origin, upslope,
+    #   length and width; thickness_field names its thickness attribute ("thickness").
+    #   buffer = 150.0 [m] (default with a polygon): the domain is the terrain within
+    #   this map distance of the polygon, clipped to the DEM (cells without DEM data
+    #   hold no slab); or margin = 10.0 [m]: the rectangle of the polygon plus a margin
+    #   (earlier versions; give one of the two)
 
     [strength]                  # optional (default: kind = "constant", params.tau_peak)
     kind = "grf"                # "constant": tau_peak [Pa] (default params.tau_peak)
@@ -56,16 +62,50 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   variable on dimensions named x/y (or easting/
                                 #   northing, ...); variable = "name" picks it where
                                 #   the file holds several.
+                                # "stability" (2026-11-27): a weak layer that holds its
+                                #   own slab, tau_p = S rho g h0 sin(psi) with each
+                                #   particle's own h0 and psi; S - 1 a log-normal random
+                                #   field, S > 1: mean [-] (> 1, default 1.42, the paper's
+                                #   1000 / 703), cov [-] (default 0.1), length_scale,
+                                #   angle_deg, model, seed, field_dx (as "grf")
+                                # "coulomb" (2026-11-27): tau_p = cohesion [Pa] +
+                                #   friction_coefficient [-] x rho g h0 cos(psi) (both
+                                #   required); std [Pa] > 0 makes the cohesion a random
+                                #   field (length_scale, angle_deg, model, seed, field_dx)
     start_window = [2.0, 8.0]   # optional, any kind: start the crack at the weakest
                                 # (2 m box-smoothed) spot with x in this window and y in
                                 # the middle half of the width (the paper's star),
                                 # instead of setup.start; or [x_min, x_max, y_min, y_max]
+                                # ("stability" and "coulomb": the lowest tau_p / tau_g)
+    natural_release = false     # optional, any kind (2026-11-27): a scenario in which
+                                # the weak layer of a snow-covered cell farther than 2 m
+                                # from the start fails under its own slab at t = 0 stops
+                                # with one line (how many cells, where); true runs it
+    trigger = "weakest"         # optional (2026-11-27): "random" starts the crack at a
+                                # random cell of the start zone ([snow]), drawn with
+                                # strength.seed (an ensemble's members: their own spots)
+
+    [snow]                      # optional (2026-11-27; damjax.snow_cover): the snow cover.
+                                # Without it every cell holds params.thickness
+    kind = "uniform"            # "uniform": params.thickness (or the polygon's)
+                                # "slope_corrected": reference_thickness d0* [m] (default
+                                #   params.thickness) x 0.291 / (sin psi - 0.202 cos psi)
+                                #   (Swiss guidelines; held at 1 below 28 deg)
+                                # "depth_map": file = raster of the vertical snow depth HS
+                                #   [m] (.tif, .asc, .nc; the DEM's CRS): h0 = HS cos(psi)
+    max_slope_deg = 60.0        # [deg], (0, 90]: no slab on steeper cells
+    min_thickness = 0.1         # [m], >= 0: no slab on thinner cells
+    start_min_slope_deg = 28.0  # [deg]: the start zone is the snow in this..max_slope_deg
+    mask = "forest.tif"         # optional raster (the DEM's CRS): nonzero cells hold no
+                                # snow (forest, rock). Cells without snow hold no particle
+                                # (no particle work) and are free edges. Files: DEM only
 
     [output]                    # as for PSTs: dir, plot, snapshots
 
 Validation follows `damjax.scenario`: one line per problem naming the key, the value and
 the valid range; unknown keys are rejected; files are read (and their coverage of the
-release area checked) when the scenario is read.
+release area checked) when the scenario is read. Released slab that slides over the
+grid's edge leaves the run (summary ``outflow_area_m2``).
 """
 
 from __future__ import annotations
@@ -80,7 +120,6 @@ from typing import Any
 import numpy as np
 
 from damjax import theory
-from damjax.constants import G_ACC
 from damjax.params import PSTParams, PSTSetup, SlopeSetup, specs
 from damjax.scenario import slope_fields
 from damjax.scenario.schema import (
@@ -90,17 +129,24 @@ from damjax.scenario.schema import (
     _check_section,
     _fmt,
     _is_number,
-    prepared,
     register,
     toml_lines,
 )
-from damjax.scenario.slope_fields import _GENERIC_DEFAULTS, _FieldProblem, resolve_fields
+from damjax.scenario.slope_fields import (
+    _GENERIC_DEFAULTS,
+    NATURAL_RELEASE_ADVICE,
+    _FieldProblem,
+    natural_release_problem,
+    resolve_inputs,
+)
 from damjax.slope import simulation
 from damjax.slope.generic import window_problem
 from damjax.validation import InputError, Problem
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
-STRENGTH_KINDS = ("constant", "grf", "map")
+STRENGTH_KINDS = ("constant", "grf", "map", "stability", "coulomb")
+SNOW_KINDS = ("uniform", "slope_corrected", "depth_map")
+TRIGGERS = ("weakest", "random")
 UPSLOPE_AXES = ("+x", "-x", "+y", "-y")
 COVARIANCE_MODELS = ("gaussian", "exponential")
 # PSTParams fields with no meaning on a slope (a PST strength profile)
@@ -130,8 +176,13 @@ _TERRAIN_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "release": ("str", None, ""),
         "margin": ("float", _NONNEG, "m"),
         "thickness_field": ("str", None, ""),
+        # a domain the terrain bounds (2026-11-27): the terrain within this map distance
+        # of the release polygon, clipped to the DEM (default BUFFER_DEFAULT with a
+        # polygon, unless a margin is given: the rectangle of earlier versions)
+        "buffer": ("float", _POS, "m"),
     },
 }
+BUFFER_DEFAULT = 150.0  # [m] around a release polygon
 _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "constant": {"tau_peak": ("float", _POS, "Pa"), "trend": ("float", _ANY, "Pa/m")},
     "grf": {
@@ -151,8 +202,53 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "origin": ("pair", _ANY, "m"),
         "variable": ("str", None, ""),
     },
+    # --- a weak layer that holds its own slab (2026-11-27) ---------------------------
+    # "stability": S = tau_p / tau_g, tau_g = rho g h0 sin(psi) each particle's own load;
+    # S - 1 a log-normal random field (damjax.fields.stability_field), S > 1 everywhere
+    "stability": {
+        "mean": ("float", (lambda v: v > 1 and math.isfinite(v), "(1, inf)"), ""),
+        "cov": ("float", _NONNEG, ""),
+    },
+    # "coulomb": tau_p = cohesion + friction_coefficient x rho g h0 cos(psi); the cohesion
+    # a constant or (std > 0) a Gaussian random field as "grf"'s
+    "coulomb": {
+        "cohesion": ("float", _NONNEG, "Pa"),
+        "friction_coefficient": ("float", _NONNEG, ""),
+        "std": ("float", _NONNEG, "Pa"),
+    },
 }
-_STRENGTH_COMMON = {"start_window": ("window", _NONNEG, "m")}
+# the random field's correlation, as "grf"'s, for the kinds of 2026-11-27
+for _kind in ("stability", "coulomb"):
+    _STRENGTH_KEYS[_kind].update(
+        {
+            k: _STRENGTH_KEYS["grf"][k]
+            for k in ("length_scale", "angle_deg", "model", "seed", "field_dx")
+        }
+    )
+_STRENGTH_COMMON = {
+    "start_window": ("window", _NONNEG, "m"),
+    # a run in which a snow-covered cell outside the trigger fails under its own slab at
+    # t = 0 stops before it starts, unless this is true (2026-11-27)
+    "natural_release": ("bool", None, ""),
+    # "weakest" (default): the weakest spot (start_window, polygon) or setup.start;
+    # "random": a random cell of the start zone, drawn with strength.seed (2026-11-27)
+    "trigger": ("str", TRIGGERS, ""),
+}
+# --- the snow cover (2026-11-27; damjax.snow_cover) -----------------------------------
+_ANGLE_TO_90 = (lambda v: 0 < v <= 90, "(0, 90]")
+_SNOW_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
+    "uniform": {},  # params.thickness (or the polygon's attribute) everywhere
+    # d = reference_thickness x 0.291 / (sin psi - 0.202 cos psi) (Swiss guidelines)
+    "slope_corrected": {"reference_thickness": ("float", _POS, "m")},
+    # a raster of the vertical snow depth HS [m] in the DEM's CRS: d = HS cos(psi)
+    "depth_map": {"file": ("str", None, "")},
+}
+_SNOW_COMMON = {
+    "max_slope_deg": ("float", _ANGLE_TO_90, "deg"),  # no slab steeper (default 60)
+    "min_thickness": ("float", _NONNEG, "m"),  # no slab thinner (default 0.1)
+    "start_min_slope_deg": ("float", _ANGLE, "deg"),  # start zone's lower edge (28)
+    "mask": ("str", None, ""),  # raster in the DEM's CRS: nonzero cells hold no snow
+}
 
 
 def _check_table(
@@ -195,7 +291,12 @@ def _check_table(
         typ, rule, unit = keys[key]
         name = f"{section}.{key}"
         u = f" {unit}" if unit else ""
-        if typ == "str":
+        if typ == "bool":
+            if not isinstance(value, bool):
+                problems.append(f"{name} = {_fmt(value)}: must be true or false")
+                continue
+            out[key] = value
+        elif typ == "str":
             if rule is None:
                 if not isinstance(value, str) or not value:
                     problems.append(f"{name} = {_fmt(value)}: must be a path (a string)")
@@ -283,6 +384,15 @@ def _place_release(
         return
     thickness_given = "thickness" in pgiven
     field = terrain.get("thickness_field", "thickness")
+    if "buffer" in terrain and "margin" in terrain:
+        problems.append(
+            "terrain.margin: give terrain.buffer (the terrain around the polygon) or "
+            "terrain.margin (the rectangle of the polygon plus a margin), not both"
+        )
+        return
+    if "buffer" not in terrain and "margin" not in terrain:
+        terrain["buffer"] = BUFFER_DEFAULT
+    buffer = terrain.get("buffer")
     try:
         area = release_area.read_release_area(
             rel_file,
@@ -291,6 +401,7 @@ def _place_release(
             margin=float(terrain.get("margin", 10.0)),
             upslope=terrain.pop("upslope", None),  # re-added after origin (key order)
             thickness_field="" if thickness_given and "thickness_field" not in terrain else field,
+            buffer=None if buffer is None else float(buffer),
         )
     except release_area.ReleaseAreaError as exc:
         problems.append(str(exc))
@@ -304,7 +415,7 @@ def _place_release(
         if not np.allclose(np.asarray(value, float), placed[key], rtol=1e-9, atol=1e-6):
             problems.append(
                 f"{key} = {_fmt(value)}: set by terrain.release (the polygon plus "
-                f"terrain.margin gives {_fmt(placed[key])}); remove it"
+                f"terrain.buffer or terrain.margin gives {_fmt(placed[key])}); remove it"
             )
     terrain["origin"] = list(area.origin)
     terrain["upslope"] = area.upslope
@@ -362,7 +473,13 @@ def check(
         _STRENGTH_COMMON,
         problems,
     )
+    snow = None
+    if "snow" in data:
+        snow = _check_table(
+            "snow", data["snow"], _SNOW_KEYS, SNOW_KINDS, "uniform", _SNOW_COMMON, problems
+        )
     notes: list[str] = []
+    _snow_strength_rules(terrain, strength, snow, base_dir, problems)
     if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
         _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes)
     # given away from the default: a file written by `Scenario.to_toml` lists every field
@@ -400,6 +517,7 @@ def check(
         type="slope",
         terrain=terrain,
         strength=strength,
+        snow=snow,
     )
     given = {**pvals, **svals}
     n0 = len(problems)
@@ -409,7 +527,8 @@ def check(
         if n0 or terrain is None or strength is None:
             raise _Unread
         _grid_problems(terrain, strength, setup)
-        return resolve_fields(dataclasses.replace(scn, setup=setup))
+        # the natural release is checked on the prepared run (its particles' load ratio)
+        return resolve_inputs(dataclasses.replace(scn, setup=setup), natural_release=False)
 
     try:
         prep = simulation.prepare(scn.params, scn.setup, fields=fields, max_particles=MAX_PARTICLES)
@@ -425,15 +544,14 @@ def check(
         return None, []
     if problems:
         return None, []
+    # a weak layer that fails under its own slab outside the trigger: a natural release
+    problem = natural_release_problem(prep.setup, prep.load_ratio, prep.cover, prep.source)
+    if problem and not strength.get("natural_release", False):
+        problems.append(problem + NATURAL_RELEASE_ADVICE)
+        return None, []
+    if problem:
+        notes.append(f"{problem} (strength.natural_release = true: run as a natural release)")
     object.__setattr__(scn, "_prepared", prep)
-    frac = sum(n.value for n in prep.notes if n.category == "overloaded")
-    if frac > 0 and "release" not in terrain:
-        # (on a polygon's rectangle the terrain decides it: warn_resolution warns)
-        notes.append(
-            f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
-            f"{100 * frac:.3g} % of the release area (the weak layer fails there under the "
-            "slab's weight)"
-        )
     if "start" in svals and "start_window" in strength:
         start = prep.setup.start
         notes.append(
@@ -482,7 +600,7 @@ def _lines(
             )
             continue
         choices = specs(SlopeSetup).get(p.field or "")
-        if choices is not None and choices.kind == "choice":
+        if choices is not None and choices.kind == "choice" and p.valid:
             valid = "{" + ", ".join(f'"{c}"' for c in choices.valid) + "}"
             value = given.get(p.field, p.value)
             out.append(f"setup.{p.field} = {_fmt(value)}: must be one of {valid}")
@@ -498,19 +616,8 @@ def _lines(
 
 def warn_resolution(scn: Any) -> None:
     """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5, with how to
-    check it (half the dx, the same random field); for a
-    ``terrain.release`` scenario also when the weak layer fails under the slab's weight
-    somewhere in the polygon's rectangle (steep DEM cells: a property of the terrain)."""
-    if scn.terrain is not None and scn.terrain.get("release"):
-        frac = sum(n.value for n in prepared(scn).notes if n.category == "overloaded")
-        if frac > 0:
-            warnings.warn(
-                f"strength: tau_p is below the gravitational shear rho g h sin(psi) on "
-                f"{100 * frac:.3g} % of the release polygon's rectangle (DEM cells steeper "
-                f"than {np.degrees(np.arcsin(min(1.0, _min_ratio(scn)))):.3g} deg for the "
-                "mean strength): the weak layer fails there under the slab's weight",
-                stacklevel=3,
-            )
+    check it (half the dx, the same random field). A weak layer that fails under its own
+    slab is the loader's (`natural_release_problem`)."""
     lam = float(theory.elastic_length(scn.params))
     if scn.setup.dx > lam / 5:
         # the shipped slopes run at dx 0.2 m (Lambda/5 = 0.133 m): the guide's "Grid
@@ -526,11 +633,31 @@ def warn_resolution(scn: Any) -> None:
         )
 
 
-def _min_ratio(scn: Any) -> float:
-    """Mean strength over rho g h (sin of the angle at which the mean strength fails)."""
-    st = scn.strength or {}
-    mean = float(st.get("mean", st.get("tau_peak", scn.params.tau_peak)))
-    return mean / (float(scn.params.density) * G_ACC * float(scn.params.thickness))
+def _snow_strength_rules(
+    terrain: Any, strength: Any, snow: Any, base_dir: Any, problems: list[str]
+) -> None:
+    """The rules between [snow], [strength] and [terrain] keys (files resolved)."""
+    dem = terrain is not None and terrain["kind"] == "dem"
+    if snow is not None:
+        for key in ("file", "mask"):
+            if key in snow:
+                if not dem:
+                    problems.append(
+                        f'snow.{key}: a raster in the DEM\'s coordinates needs terrain.kind = "dem"'
+                    )
+                snow[key] = str(_resolve_path(snow[key], base_dir))
+        if snow["kind"] == "depth_map" and "file" not in snow:
+            problems.append("snow.file: missing (a raster of the vertical snow depth HS [m])")
+    if strength is not None:
+        if strength["kind"] == "coulomb":
+            for key in ("cohesion", "friction_coefficient"):
+                if key not in strength:
+                    problems.append(f'strength.{key}: missing (strength.kind = "coulomb")')
+        if strength.get("trigger") == "random" and "start_window" in strength:
+            problems.append(
+                'strength.trigger = "random": draws the start in the start zone; give no '
+                "strength.start_window"
+            )
 
 
 register("slope", check, warn_resolution, slope_fields.prepare)

@@ -16,7 +16,7 @@ import numpy as np
 from damjax import io
 from damjax.fields.grf import box_sum
 from damjax.params import PSTParams, SlopeSetup
-from damjax.slope.simulation import SlopeResult
+from damjax.slope.simulation import SlopeResult, initial_thickness
 
 
 def _speed_fit(result: Any, smooth_m: float) -> np.ndarray:
@@ -126,7 +126,7 @@ def result_dataset(result: Any, snapshots: bool = True) -> Any:
         "over 1 m: no front, no crack speed",
         "flag_values": "0 1",
     }
-    h0 = float(result.params.thickness)
+    h0 = initial_thickness(result)
     for name, mask, what in (
         ("crown", result.height < 0.98 * h0, "tensile fracture (crown): h < 0.98 h0"),
         ("stauchwall", result.height > 1.02 * h0, "compression (stauchwall): h > 1.02 h0"),
@@ -165,6 +165,8 @@ def load_result(path: str | Path) -> Any:
             "broken": ds["released_snapshots"].values,
         }
     return SlopeResult(
+        thickness=ds["thickness"].values if "thickness" in ds else None,
+        snow=ds["snow"].values.astype(bool) if "snow" in ds else None,
         x=ds["x"].values,
         y=ds["y"].values,
         height=ds["height"].values,

@@ -36,6 +36,9 @@ from damjax.core.model import (  # noqa: F401  (SlopeLayout: public here too)
     SlopeLayout,
     build_slope,
     make_slope_layout,
+    slope_particle_fields,
+    slope_particles,
+    uniform_value,
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
 from damjax.core.step import column_height
@@ -95,9 +98,17 @@ class SlopeResult:
             distances are None unless that front arrested. ``release_area_m2`` counts
             every failed cell, the saw's cut included (``sawn_area_m2``); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
-            release is the cut (a warning says so).
+            release is the cut (a warning says so). ``initial_failure_area_m2``: the
+            weak layer failing under the slab's own weight at t = 0 (tau_p <= rho g h0
+            sin psi); ``outflow_particles`` / ``outflow_area_m2``: slab that slid out over
+            the grid's edge (it leaves the run); ``domain_edge_fraction``: the share of the
+            released area's boundary on the domain's edge (a warning above
+            `DOMAIN_EDGE_WARN`); ``snow_area_m2``: the snow-covered area.
         setup: the `SlopeSetup` that was run.
         params: the `PSTParams` that were run.
+        thickness: (nx, ny) initial slab thickness h0 normal to the slope [m] (0 where no
+            snow lies; None in results read from files written before 2026-11-27).
+        snow: (nx, ny) bool, the snow-covered cells (those that hold particles).
     """
 
     x: np.ndarray  # (nx,) cell centres up-slope [m]
@@ -112,6 +123,8 @@ class SlopeResult:
     summary: dict[str, Any]
     setup: SlopeSetup
     params: PSTParams
+    thickness: np.ndarray | None = None  # initial h0 [m] (0: no snow)
+    snow: np.ndarray | None = None  # snow-covered cells (bool)
 
     def to_dataset(self) -> Any:
         """xarray Dataset of the maps and snapshots, CF-style units and long names.
@@ -133,6 +146,24 @@ class SlopeResult:
                 "opening": var(("x", "y"), self.opening, "1", "tensile plastic strain"),
                 "tau_peak": var(("x", "y"), self.tau_peak, "Pa", "weak-layer shear strength"),
                 "slope_angle": var(("x", "y"), self.slope_deg, "degree", "local slope angle"),
+                **(
+                    {}
+                    if self.thickness is None
+                    else {
+                        "thickness": var(
+                            ("x", "y"), self.thickness, "m", "initial slab thickness h0"
+                        )
+                    }
+                ),
+                **(
+                    {}
+                    if self.snow is None
+                    else {
+                        "snow": var(
+                            ("x", "y"), np.asarray(self.snow, np.int8), "1", "snow-covered cell"
+                        )
+                    }
+                ),
             },
             coords={
                 "x": var(("x",), self.x, "m", "up-slope distance along the surface"),
@@ -189,6 +220,8 @@ jax.tree_util.register_dataclass(
         "snapshots",
         "summary",
         "params",
+        "thickness",
+        "snow",
     ],
     meta_fields=["setup"],
 )
@@ -206,7 +239,7 @@ def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
 
 
 def _crown_and_stauchwall(
-    model: Any, final: Any, height: np.ndarray, h0: float, cm: Any
+    model: Any, final: Any, height: np.ndarray, h0: Any, cm: Any
 ) -> tuple[np.ndarray, np.ndarray]:
     """Crown and stauchwall cells (nx, ny). With a particle lattice (the "crack_band"
     slab) from band openings, fixed in metres: the crown where the tensile band opening
@@ -214,7 +247,8 @@ def _crown_and_stauchwall(
     where the compressive band closure (the volumetric plastic compaction times the
     particle spacing, summed across the band as `damjax.materials.slab_fracture.band_opening` does)
     reached `FRACTURE_OPENING` (1 mm). Without one: the column height changed by more
-    than 2 % (thresholds on h, which depend on dx)."""
+    than 2 % of the initial thickness h0 (a scalar or the cells' (nx, ny) map; thresholds
+    on h, which depend on dx)."""
     if not model.lattice:
         return height < 0.98 * h0, height > 1.02 * h0
     w = band_opening(model, final.opening, opening_y=final.opening_y)
@@ -246,7 +280,12 @@ def _cell_map(
 
 
 def _front_speed(
-    coord: np.ndarray, t: np.ndarray, lo: float, hi: float, window: float = SPEED_WINDOW_M
+    coord: np.ndarray,
+    t: np.ndarray,
+    lo: float,
+    hi: float,
+    window: float = SPEED_WINDOW_M,
+    limit: float = math.inf,
 ) -> tuple[float, float]:
     """(mean, peak) speed [m/s] of the crack front along a band between ``lo`` and ``hi``.
 
@@ -255,6 +294,12 @@ def _front_speed(
     acceleration after the saw and the deceleration before the arrest in). Peak: the
     largest of the least-squares speeds over sliding windows of ``window`` metres, the
     counterpart of the PST's maximum crack speed (`damjax.diagnostics.crack_speed`).
+
+    Speeds above ``limit`` [m/s] (the slab's fastest wave, `damjax.slope.results.
+    front_speed_limit`) are no front's run along the band: there the cells failed together,
+    or a front that came round from elsewhere crossed the band at a slant (an apparent
+    speed; a real path's avaKot member of 2026-11-27 gave 25 c_s where the up-slope front
+    met fronts from the sides). Such windows are left out, and a mean above it is NaN.
     """
     sel = np.isfinite(t) & (coord >= lo) & (coord <= hi)
     if sel.sum() < 5 or np.ptp(t[sel]) <= 0:
@@ -271,14 +316,14 @@ def _front_speed(
     # arrival times that fall with distance (a front from elsewhere, a noisy strength
     # field) have no speed along this band
     slope = float(np.polyfit(cb, tt, 1)[0])
-    mean = 1.0 / slope if slope > 0 else math.nan
+    mean = 1.0 / slope if slope > 0 and 1.0 / slope <= limit else math.nan
     n_win = int(round(window / 0.5))
     speeds = []
     for i in range(cb.size):
         j = np.searchsorted(cb, cb[i] + window - 1e-9)
         if j - i >= max(3, n_win - 1) and np.ptp(tt[i:j]) > 0:
             slope = np.polyfit(cb[i:j], tt[i:j], 1)[0]
-            if slope > 0:
+            if slope > 0 and 1.0 / slope <= limit:
                 speeds.append(float(1.0 / slope))
     return mean, max(speeds, default=math.nan)
 
@@ -327,12 +372,81 @@ def _slope_notes(
     return notes
 
 
-def overloaded_fraction(params: PSTParams, slope_deg: Any, tau_peak: Any) -> float:
+def overloaded_fraction(
+    params: PSTParams, slope_deg: Any, tau_peak: Any, thickness: Any = None
+) -> float:
     """Share of the cells where tau_p <= rho g h sin(psi): the weak layer fails there
-    under the slab's weight (scalars or (nx, ny) maps, broadcast)."""
+    under the slab's weight (scalars or (nx, ny) maps, broadcast; ``thickness`` [m]:
+    default ``params.thickness``)."""
     psi = np.radians(np.asarray(slope_deg, dtype=float))
-    tau_g = float(params.density) * G_ACC * float(params.thickness) * np.sin(psi)
+    h = float(params.thickness) if thickness is None else np.asarray(thickness, dtype=float)
+    tau_g = float(params.density) * G_ACC * h * np.sin(psi)
     return float(np.mean(np.asarray(tau_peak, dtype=float) <= tau_g))
+
+
+def initial_failures(model: Model) -> Any:
+    """(n,) bool: particles whose weak layer fails under the slab's own weight at t = 0,
+    tau_p <= rho g h0 sin(psi) (the pre-load of `damjax.core.model.build_slope` reaches
+    the peak), in the model's own values (h0 and psi at each particle)."""
+    g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
+    return model.tau_peak <= model.density * model.thickness * g_t
+
+
+SOURCE_WINDOW_M = 2.0  # [m] the window of `arrival_sources`' local minima
+
+
+def arrival_sources(arrival_time: np.ndarray, dx: float, window_m: float = SOURCE_WINDOW_M) -> int:
+    """How many sources the arrival-time map has: connected groups of released cells whose
+    failure time is the earliest within ``window_m`` around them. A crack that ran from
+    the trigger alone has one (the trigger); every weak spot that failed by itself adds
+    one. 0 when nothing released."""
+    from scipy import ndimage
+
+    t = np.where(np.isfinite(arrival_time), arrival_time, np.inf)
+    if not np.isfinite(t).any():
+        return 0
+    k = 2 * max(1, int(round(0.5 * window_m / dx))) + 1
+    low = np.isfinite(t) & (t <= ndimage.minimum_filter(t, size=k, mode="nearest"))
+    _, n = ndimage.label(low, structure=np.ones((3, 3), bool))
+    return int(n)
+
+
+# share of the released area's boundary on the domain's edge above which a run warns
+DOMAIN_EDGE_WARN = 0.05
+
+
+def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None) -> float | None:
+    """Share of the released area's boundary that lies on the domain's edge.
+
+    The boundary is counted in cell faces between a released cell and one that is not
+    (``released``: (nx, ny) bool); a face is on the domain's edge where the other cell
+    lies outside the rectangle or outside ``domain`` ((nx, ny) bool: the terrain the run
+    may release, e.g. the buffer around a release polygon within the DEM's data; None:
+    the whole rectangle). Cells inside the domain without snow (steep rock, a mask) are
+    terrain, not domain edge. None when nothing released.
+    """
+    rel = np.asarray(released, bool)
+    if not rel.any():
+        return None
+    dom = np.ones_like(rel) if domain is None else np.asarray(domain, bool)
+    rel_p = np.pad(rel, 1)
+    out_p = ~np.pad(dom, 1, constant_values=False)  # outside the rectangle: edge
+    total = edge = 0
+    for ax, sh in ((0, 1), (0, -1), (1, 1), (1, -1)):
+        nb_rel = np.roll(rel_p, sh, axis=ax)[1:-1, 1:-1]
+        nb_out = np.roll(out_p, sh, axis=ax)[1:-1, 1:-1]
+        face = rel & ~nb_rel
+        total += int(face.sum())
+        edge += int((face & nb_out).sum())
+    return edge / total if total else 0.0
+
+
+def initial_thickness(result: Any) -> Any:
+    """A slope result's initial slab thickness h0 [m]: its (nx, ny) map (0 where no snow
+    lies), or ``params.thickness`` for results written before 2026-11-27."""
+    if getattr(result, "thickness", None) is not None:
+        return np.asarray(result.thickness, dtype=float)
+    return float(result.params.thickness)
 
 
 def _ratio_or_none(v: float, cs: float) -> float | None:
@@ -410,6 +524,11 @@ def simulate_slope(
     start_chunk: int = 0,
     history: tuple[list[Any], list[Any]] | None = None,
     callback: Any = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
 ) -> SlopeResult:
     """Run a slope-scale release.
 
@@ -446,12 +565,37 @@ def simulate_slope(
             from the inputs.
         callback: ``callback(chunk, state, tips, snaps)`` after every chunk, with the
             whole history so far (checkpointing; see `damjax.core.loop.integrate`).
+        thickness: initial slab thickness h0 normal to the slope [m], (nx, ny) at cell
+            centres (`damjax.snow_cover`); None (default): ``params.thickness``
+            everywhere, the uniform slab of earlier versions (bitwise the same run).
+        cover: (nx, ny) bool, the snow-covered cells: only they hold particles (a cell
+            without snow costs no particle work and is a free edge); None: every cell.
+        stability: stability ratio S = tau_p / tau_g [-], (nx, ny) or a scalar, instead
+            of ``tau_peak``: each particle's strength is S times the shear its own slab
+            loads it with, rho g h0 sin(psi).
+        wl_friction: friction coefficient mu [-] of the weak layer's strength (a scalar or
+            (nx, ny)): tau_p = tau_peak + mu rho g h0 cos(psi), ``tau_peak`` the cohesion.
+        domain: (nx, ny) bool, the cells the run may release (a release polygon's buffer
+            within the DEM's data); its edge, with the rectangle's, is where the summary's
+            ``domain_edge_fraction`` counts the release as bounded by the domain. None:
+            the rectangle.
+
+    Slab that slides over the grid's edge leaves the run (outflow, counted in the
+    summary) instead of stopping it.
     """
-    traced = is_traced((params, slope_deg, tau_peak, fall_deg))
+    snow = dict(thickness=thickness, cover=cover, stability=stability, wl_friction=wl_friction)
+    traced = is_traced((params, slope_deg, tau_peak, fall_deg, snow))
     resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
     concrete_only("simulate_slope", traced, progress, resume)
     prep = prepare(
-        params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg, layout=layout
+        params,
+        setup,
+        slope_deg=slope_deg,
+        tau_peak=tau_peak,
+        fall_deg=fall_deg,
+        layout=layout,
+        domain=domain,
+        **snow,
     )
     for note in prep.notes:
         category = SlopeRunWarning if note.category == "slope" else UserWarning
@@ -472,7 +616,15 @@ class PreparedSlope:
         layout: the static layout (grid, step count, slab law).
         notes: the warnings of the input, not yet warned (`damjax.validation.Problem`s;
             category "slope": a `SlopeRunWarning`, "overloaded": the strength at or below
-            the slab's weight, with the share of the area as ``value``).
+            the slab's weight, with the share of the snow-covered area as ``value``).
+        thickness, cover, stability, wl_friction, domain: the snow cover and the weak
+            layer's own load (`simulate_slope`'s; None: not given).
+        load_ratio: (n,) tau_p / tau_g of each particle at t = 0 (at most 1: its weak layer
+            fails under its own slab), in the order of
+            `damjax.core.model.slope_particles`; None for traced inputs.
+        source: what ``fields`` returned (a scenario's
+            `damjax.scenario.slope_fields.SlopeInputs`: map coordinates, start zone), else
+            None.
     """
 
     params: PSTParams
@@ -482,6 +634,37 @@ class PreparedSlope:
     fall_deg: Any
     layout: SlopeLayout
     notes: tuple[Problem, ...] = ()
+    thickness: Any = None
+    cover: Any = None
+    stability: Any = None
+    wl_friction: Any = None
+    domain: Any = None
+    load_ratio: Any = None
+    source: Any = None
+
+    def snow(self) -> dict[str, Any]:
+        """`damjax.core.model.build_slope`'s snow and weak-layer keywords."""
+        return dict(
+            thickness=self.thickness,
+            cover=self.cover,
+            stability=self.stability,
+            wl_friction=self.wl_friction,
+        )
+
+
+def build(prep: PreparedSlope, layout: SlopeLayout | None = None) -> tuple[Model, State, Any, Any]:
+    """Model, initial state and particle positions (x, y) [m] of a prepared run
+    (`damjax.core.model.build_slope` on its maps and snow cover; ``layout``: default the
+    prepared one)."""
+    return build_slope(
+        prep.params,
+        prep.setup,
+        prep.layout if layout is None else layout,
+        prep.slope_deg,
+        prep.tau_peak,
+        prep.fall_deg,
+        **prep.snow(),
+    )
 
 
 def prepare(
@@ -494,6 +677,11 @@ def prepare(
     layout: SlopeLayout | None = None,
     fields: Any = None,
     max_particles: int | None = None,
+    thickness: Any = None,
+    cover: Any = None,
+    stability: Any = None,
+    wl_friction: Any = None,
+    domain: Any = None,
 ) -> PreparedSlope:
     """Check a slope run's input once and make its layout: the types, every value (those
     JAX holds behind traced inputs under `jax.grad` and `jax.vmap`, member by member; inside
@@ -510,9 +698,16 @@ def prepare(
         layout: static layout (`damjax.core.model.make_slope_layout`); default: made
             from the inputs.
         fields: instead of the maps, ``fields(setup) -> (slope_deg, fall_deg, tau_peak,
-            start)``, called once the parameters and the grid are valid (a scenario's
-            terrain and strength tables, read on the grid).
+            start)``, or an object with these attributes and those of the snow cover
+            (``thickness``, ``cover``, ``stability``, ``wl_friction``, ``domain``; kept
+            as `PreparedSlope.source`), called once the parameters and the grid are valid
+            (a scenario's terrain, snow and strength tables, read on the grid).
         max_particles: the most particles a run may have (scenario files).
+        thickness: initial slab thickness h0 [m], scalar or (nx, ny) (`simulate_slope`).
+        cover: (nx, ny) bool, the snow-covered cells (`simulate_slope`).
+        stability: stability ratio S = tau_p / tau_g [-], scalar or (nx, ny).
+        wl_friction: friction coefficient of the weak layer's strength [-].
+        domain: (nx, ny) bool, the cells the run may release (`simulate_slope`).
     """
     setup = SlopeSetup() if setup is None else setup
     expect_types(
@@ -523,32 +718,61 @@ def prepare(
     )
     slope_deg = params.slope_deg if slope_deg is None else slope_deg
     tau_peak = params.tau_peak if tau_peak is None else tau_peak
-    inputs = (params, slope_deg, tau_peak, fall_deg)
+    snow = dict(thickness=thickness, cover=cover, stability=stability, wl_friction=wl_friction)
+    inputs = (params, slope_deg, tau_peak, fall_deg, snow)
     if is_traced(inputs):
         require_x64(setup.dtype)
+        if is_traced((cover, domain)):
+            raise TypeError(
+                "simulate_slope: cover and domain (bool maps of cells: cover fixes which "
+                "particles exist) must be concrete arrays, not traced"
+            )
         # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
         members = concrete_members(inputs)
-        for member in members or ():
-            raise_if(slope_problems(member[0], setup, *member[1:]))
+        for m in members or ():
+            raise_if(slope_problems(m[0], setup, *m[1:4], **m[4], domain=domain))
         if layout is None:
             if members is None:
-                layout = _layout_from_known(params, setup, slope_deg)
+                layout = _layout_from_known(params, setup, slope_deg, cover)
             else:
-                layout = _batch_layout(members, setup)
-            _check_size(layout, setup, max_particles)
-        return PreparedSlope(params, setup, slope_deg, tau_peak, fall_deg, layout)
+                layout = _batch_layout(members, setup, cover)
+            _check_size(layout, setup, max_particles, cover)
+        return PreparedSlope(
+            params, setup, slope_deg, tau_peak, fall_deg, layout, domain=domain, **snow
+        )
+    source = None
     if fields is None:
-        raise_if(slope_problems(params, setup, slope_deg, tau_peak, fall_deg))
+        raise_if(
+            slope_problems(params, setup, slope_deg, tau_peak, fall_deg, **snow, domain=domain)
+        )
     else:  # the maps read once the parameters and the grid are valid
         raise_if(slope_problems(params, setup))
-        slope_deg, fall_deg, tau_peak, start = fields(setup)
+        source = fields(setup)
+        if isinstance(source, tuple):
+            slope_deg, fall_deg, tau_peak, start = source
+            source = None
+        else:
+            slope_deg, fall_deg = source.slope_deg, source.fall_deg
+            tau_peak, start = source.tau_peak, source.start
+            snow = {k: getattr(source, k, None) for k in snow}
+            domain = getattr(source, "domain", None)
         setup = dataclasses.replace(setup, start=start)
-        raise_if(slope_field_problems(setup, slope_deg, tau_peak, fall_deg))
+        raise_if(
+            slope_field_problems(
+                setup, slope_deg, tau_peak, fall_deg, params=params, **snow, domain=domain
+            )
+        )
     notes = [
         Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
         for note in _slope_notes(params, setup, slope_deg, fall_deg)
     ]
-    frac = overloaded_fraction(params, slope_deg, tau_peak)
+    if layout is None:
+        layout = make_slope_layout(params, setup, steepest_covered(slope_deg, snow["cover"]))
+        _check_size(layout, setup, max_particles, snow["cover"])
+    # (the run's size checked first: the load ratio is an array over its particles)
+    ensure_x64(setup.dtype)
+    ratio = load_ratio(params, setup, slope_deg, tau_peak, fall_deg, **snow)
+    frac = float(np.mean(ratio <= 1.0)) if ratio.size else 0.0
     if frac > 0:
         notes.append(
             Problem(
@@ -562,18 +786,63 @@ def prepare(
                 category="overloaded",
             )
         )
-    ensure_x64(setup.dtype)
-    if layout is None:
-        layout = make_slope_layout(params, setup, float(np.max(slope_deg)))
-        _check_size(layout, setup, max_particles)
-    return PreparedSlope(params, setup, slope_deg, tau_peak, fall_deg, layout, tuple(notes))
+    return PreparedSlope(
+        params,
+        setup,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        layout,
+        tuple(notes),
+        domain=domain,
+        load_ratio=ratio,
+        source=source,
+        **snow,
+    )
 
 
-def _check_size(layout: SlopeLayout, setup: SlopeSetup, max_particles: int | None) -> None:
+def load_ratio(
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope_deg: Any,
+    tau_peak: Any,
+    fall_deg: Any = 0.0,
+    **snow: Any,
+) -> np.ndarray:
+    """(n,) tau_p / tau_g of each particle at t = 0: its weak layer's strength over the
+    shear its own slab loads it with, rho g h0 sin(psi), in the model's own values (at
+    most 1: the layer fails under its slab before any cut). Particles in the order of
+    `damjax.core.model.slope_particles`; ``snow``: `build_slope`'s snow keywords."""
+    cover = snow.get("cover")
+    _, _, xp, yp = slope_particles(setup, cover=cover)
+    pf = slope_particle_fields(
+        params,
+        setup,
+        xp,
+        yp,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        thickness=uniform_value(snow.get("thickness")),
+        stability=snow.get("stability"),
+        wl_friction=snow.get("wl_friction"),
+    )
+    tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
+    tau_g = np.broadcast_to(tau_g, tau_p.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(tau_g > 0, tau_p / np.where(tau_g > 0, tau_g, 1.0), np.inf)
+
+
+def _check_size(
+    layout: SlopeLayout, setup: SlopeSetup, max_particles: int | None, cover: Any = None
+) -> None:
     """InputError when a slope run has more than ``max_particles`` particles or cannot
-    fit in this machine's memory."""
+    fit in this machine's memory (``cover``: only the snow-covered cells hold particles)."""
     ppc = int(setup.particles_per_cell)
-    n = layout.n_cells[0] * layout.n_cells[1] * ppc * ppc
+    cells = layout.n_cells[0] * layout.n_cells[1]
+    if cover is not None:
+        cells = int(np.sum(np.asarray(cover, bool)))
+    n = cells * ppc * ppc
     if max_particles is not None and n > max_particles:
         raise InputError(
             [
@@ -611,10 +880,10 @@ def run(
     """Integrate a prepared slope run of concrete inputs (`prepare`): the model built once,
     the run chunk by chunk, the maps and every diagnostic. The arguments are
     `simulate_slope`'s."""
-    params, setup, layout = prep.params, prep.setup, prep.layout
-    model, state0, xp, yp = build_slope(
-        params, setup, layout, prep.slope_deg, prep.tau_peak, prep.fall_deg
-    )
+    params, setup, layout, domain = prep.params, prep.setup, prep.layout, prep.domain
+    model, state0, xp, yp = build(prep)
+    # (the notes of `prepare` warned of it; a scenario's loader words it itself)
+    fails0 = np.asarray(initial_failures(model))
     final, _, snaps, info = integrate(
         model,
         state0 if state is None else state,
@@ -639,8 +908,13 @@ def run(
     up = np.max(np.where(broken & band_x, xp - x0, 0.0))
     cs = float(theory.shear_wave_speed(params))
     saw_r = float(final.saw_pos)
+    # a crack front's speed, from the failures it caused: the weak layer that failed
+    # under its own slab at t = 0 was no front's doing (all at once: no speed)
+    t_front = np.where(fails0, np.inf, t_b)
+    # no front under the slab outruns its fastest wave (`results.front_speed_limit`)
+    c_max = float(theory.plane_stress_wave_speed(params))
     v_up, v_up_peak = _front_speed(
-        xp[band_x] - x0, t_b[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0)
+        xp[band_x] - x0, t_front[band_x], saw_r + 2.0, max(up - 2.0, saw_r + 3.0), limit=c_max
     )
     dy = np.abs(yp[band_y] - y0)
     across = np.max(np.where(np.isfinite(t_b[band_y]), dy, 0.0))
@@ -652,11 +926,24 @@ def run(
         for side, sign in (("-y", -1.0), ("+y", 1.0))
     }
     v_cross, v_cross_peak = _front_speed(
-        dy, t_b[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0)
+        dy, t_front[band_y], saw_r + 2.0, max(across - 2.0, saw_r + 3.0), limit=c_max
     )
     height = cm(column_height(model, final))
-    h0 = float(params.thickness)
+    nx, ny = layout.n_cells
+    snow_map = (
+        np.bincount(
+            (cell0[0] - layout.pad[0]) * ny + cell0[1] - layout.pad[1], minlength=nx * ny
+        ).reshape(nx, ny)
+        > 0
+    )
+    if np.ndim(model.thickness) == 0:
+        h0 = np.where(snow_map, float(model.thickness), 0.0)
+    else:
+        h0 = cm(model.thickness)
     crown, stauch = _crown_and_stauchwall(model, final, height, h0, cm)
+    released_map = cm(t_b, "min") < np.inf
+    edge_frac = domain_edge_fraction(released_map, domain)
+    n_out = 0 if final.outflow is None else int(np.sum(np.asarray(final.outflow)))
     fault = None
     if int(final.fault):
         fault = f"run stopped at t = {float(final.fault_time):.4f} s: " + "; ".join(
@@ -716,6 +1003,16 @@ def run(
         # the saw stops once the crack leads it: until then the release is the cut
         "saw_stopped": not bool(final.saw_active),
         "sawn_area_m2": float(np.sum(np.asarray(model.saw_coord) < saw_r) * float(model.area0)),
+        # the weak layer failing under the slab's own weight at t = 0 (before any cut)
+        "initial_failure_area_m2": float(fails0.sum() * float(model.area0)),
+        # slab that slid out over the grid's edge (it left the run; counted as released)
+        "outflow_particles": n_out,
+        "outflow_area_m2": float(n_out * float(model.area0)),
+        # share of the released area's boundary on the domain's edge (None: no release)
+        "domain_edge_fraction": edge_frac,
+        # sources of the arrival-time map (1: the trigger alone)
+        "arrival_sources": arrival_sources(cm(t_b, "min"), setup.dx),
+        "snow_area_m2": float(xp.size * float(model.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
         "n_particles": int(xp.size),
@@ -724,6 +1021,14 @@ def run(
         "wall_time_s": info.wall_time_s,
         "particle_steps_per_s": xp.size * info.steps_done / max(info.wall_time_s, 1e-9),
     }
+    if edge_frac is not None and edge_frac > DOMAIN_EDGE_WARN:
+        warnings.warn(
+            f"simulate_slope: {100 * edge_frac:.3g} % of the released area's boundary lies on "
+            "the domain's edge (summary domain_edge_fraction): bounded by the domain, not "
+            "the terrain: enlarge the buffer (terrain.buffer) or the domain",
+            SlopeRunWarning,
+            stacklevel=2,
+        )
     if bool(final.saw_active) and not fault:
         warnings.warn(
             f"simulate_slope: the crack never ran ahead of the saw in {float(final.time):.3g} "
@@ -734,7 +1039,6 @@ def run(
             SlopeRunWarning,
             stacklevel=3,
         )
-    nx, ny = layout.n_cells
     snapshots = {}
     if snaps:
         snapshots = {
@@ -757,7 +1061,19 @@ def run(
         summary=summary,
         setup=setup,
         params=params,
+        thickness=h0,
+        snow=snow_map,
     )
+
+
+def steepest_covered(slope_deg: Any, cover: Any = None) -> float:
+    """The steepest slope angle [deg] of the snow-covered cells (all with ``cover`` None):
+    what a released slab may accelerate on (`make_slope_layout`)."""
+    psi = np.asarray(slope_deg, dtype=float)
+    if cover is None or psi.ndim == 0:
+        return float(np.max(psi))
+    c = np.asarray(cover, bool)
+    return float(np.max(psi[c])) if c.any() else float(np.max(psi))
 
 
 # compiled once per model structure and layout: a repeated jax.grad / jax.vmap of a function
@@ -765,10 +1081,10 @@ def run(
 _integrate_pure_jit = eqx.filter_jit(integrate_pure)
 
 
-def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
+def _batch_layout(members: list[Any], setup: SlopeSetup, cover: Any = None) -> SlopeLayout:
     """One layout that fits every member of a batch: the widest padding, the most steps,
     plastic if any member is."""
-    layouts = [make_slope_layout(m[0], setup, float(np.max(m[1]))) for m in members]
+    layouts = [make_slope_layout(m[0], setup, steepest_covered(m[1], cover)) for m in members]
     pad_x = max(lay.pad[0] for lay in layouts)
     pad_y = max(lay.pad[1] for lay in layouts)
     nx, ny = layouts[0].n_cells
@@ -786,7 +1102,9 @@ def _batch_layout(members: list[Any], setup: SlopeSetup) -> SlopeLayout:
 SLOPE_LAYOUT_FIELDS = ("youngs_modulus", "density", "poisson", "friction_deg")
 
 
-def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> SlopeLayout:
+def _layout_from_known(
+    params: PSTParams, setup: SlopeSetup, slope_deg: Any, cover: Any = None
+) -> SlopeLayout:
     """`make_slope_layout` inside `jax.jit` (or nested `jax.vmap`) from the inputs whose
     values are known: `SLOPE_LAYOUT_FIELDS` and the slope angle must be, the others (the
     strength map tau_peak, fall_deg, tensile_strength, softening, wl_shear_modulus, ...)
@@ -808,16 +1126,14 @@ def _layout_from_known(params: PSTParams, setup: SlopeSetup, slope_deg: Any) -> 
             "simulate_slope(..., layout=layout). Traced inputs that do not fix it need no "
             "layout"
         )
-    steepest = max(float(np.max(np.asarray(v, dtype=float))) for v in slope)
+    steepest = max(steepest_covered(v, cover) for v in slope)
     return make_slope_layout(known_params(params, unknown), setup, steepest)
 
 
 def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
     """`simulate_slope` on traced inputs: the pure run, JAX maps (`SlopeResult`)."""
     params, setup, layout = prep.params, prep.setup, prep.layout
-    model, state0, xp, yp = build_slope(
-        params, setup, layout, prep.slope_deg, prep.tau_peak, prep.fall_deg
-    )
+    model, state0, xp, yp = build(prep)
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
     # each particle's cell from its reference position (host values: model.cell0 may be
@@ -838,7 +1154,9 @@ def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
         "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.area0,
         "saw_radius_m": final.saw_pos,
         "fault_code": final.fault,
+        "outflow_particles": jnp.sum(final.outflow) if final.outflow is not None else 0,
     }
+    thickness = None if jnp.ndim(model.thickness) == 0 else cm(model.thickness)
     return SlopeResult(
         x=(np.arange(nx) + 0.5) * setup.dx,
         y=(np.arange(ny) + 0.5) * setup.dx,
@@ -852,4 +1170,5 @@ def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
         summary=summary,
         setup=setup,
         params=params,
+        thickness=thickness,
     )

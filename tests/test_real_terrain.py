@@ -1,0 +1,446 @@
+"""A release on terrain: snow cover and slab thickness from the ground, a weak layer that
+holds its own slab, outflow over the grid's edge, the domain's edge in the summary, random
+triggers in the start zone. Small sizes (seconds each)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from damjax import PSTParams, SlopeSetup, fields, scenario, simulate_slope, snow_cover
+from damjax.core.loop import integrate
+from damjax.core.model import build_slope, make_slope_layout
+from damjax.scenario import slope_fields
+from damjax.slope.simulation import arrival_sources, domain_edge_fraction
+
+SLAB = PSTParams(thickness=0.5, tensile_strength=4000.0, softening=1.0)
+
+
+def quiet_parse(doc: dict, **kw) -> scenario.Scenario:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return scenario.parse(doc, **kw)
+
+
+def quiet(fn, *args, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fn(*args, **kw)
+
+
+# --------------------------------------------------------------------------- snow cover
+
+
+def test_slope_correction_values():
+    """The Swiss guidelines' factor 0.291 / (sin psi - 0.202 cos psi): 1.00 at 28 deg,
+    0.71 at 35, 0.52 at 45, 0.41 at 55; held at its 28 deg value on gentler ground."""
+    f = snow_cover.slope_correction([28.0, 35.0, 45.0, 55.0])
+    np.testing.assert_allclose(f, [1.00, 0.71, 0.52, 0.41], atol=0.005)
+    assert snow_cover.slope_correction(15.0) == snow_cover.slope_correction(28.0)
+    assert snow_cover.depth_to_thickness(2.0, 60.0) == pytest.approx(1.0)
+
+
+def _tilted_dem(tmp_path, nx=61, ny=41, steep_from=8.0):
+    """An ESRI ASCII DEM rising along +x (1 m nodes), slope 30 deg below x = steep_from and
+    rising 2 deg per metre above (70 deg at 28 m), and a mask raster (1 for y < 8 m)."""
+    from damjax import terrain
+
+    x = np.arange(nx, dtype=float)
+    y = np.arange(ny, dtype=float)
+    xs = np.linspace(0.0, nx - 1, 20 * (nx - 1) + 1)
+    psi = np.radians(np.clip(30.0 + 2.0 * np.maximum(xs - steep_from, 0.0), 30.0, 70.0))
+    zs = np.concatenate([[0.0], np.cumsum(0.5 * (np.tan(psi[1:]) + np.tan(psi[:-1])) * 0.05)])
+    z = np.repeat(np.interp(x, xs, zs)[:, None], ny, axis=1)
+    terrain.save_esri_ascii(terrain.Terrain(x, y, z), tmp_path / "dem.asc")
+    mask = np.zeros((nx, ny))
+    mask[:, y < 8.0] = 1.0
+    terrain.save_esri_ascii(terrain.Terrain(x, y, mask), tmp_path / "forest.asc")
+    hs = np.full((nx, ny), 0.6)
+    terrain.save_esri_ascii(terrain.Terrain(x, y, hs), tmp_path / "hs.asc")
+    return tmp_path / "dem.asc"
+
+
+def _dem_doc(dem, **snow) -> dict:
+    return {
+        "type": "slope",
+        "name": "tilted",
+        "params": {"thickness": 0.3, "tensile_strength": 4000.0, "softening": 1.0},
+        "setup": {
+            "length": 30.0,
+            "width": 30.0,
+            "dx": 0.25,
+            "duration": 0.05,
+            "particles_per_cell": 1,
+            "chunk_steps": 20,
+            "start": [4.0, 20.0],
+        },
+        "terrain": {"kind": "dem", "file": str(dem), "origin": [1.0, 1.0], "upslope": "+x"},
+        "snow": {"kind": "uniform", **snow},
+        "strength": {"kind": "stability", "mean": 1.42, "cov": 0.1, "length_scale": 4.0},
+    }
+
+
+def test_no_particle_on_steep_or_masked_cells(tmp_path):
+    """Cells steeper than snow.max_slope_deg and cells under snow.mask hold no particle
+    (and the rest of the domain does)."""
+    dem = _tilted_dem(tmp_path, steep_from=4.0)
+    doc = _dem_doc(dem, max_slope_deg=60.0, mask="forest.asc")
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    inp = slope_fields.resolve_inputs(scn)
+    psi_raw, _, px, py = slope_fields.dem_fields(
+        __import__("damjax").terrain.load_dem(dem),
+        *slope_fields.cell_centres(scn.setup),
+        (1.0, 1.0),
+        "+x",
+        map_points=True,
+    )
+    steep = psi_raw > 60.0
+    masked = py < 7.5  # the mask's nearest pixel is 1 below y = 7.5 m (map)
+    assert steep.any() and masked.any() and (~steep & ~masked).any()
+    layout = make_slope_layout(scn.params, scn.setup, inp.max_slope_deg)
+    setup = dataclasses.replace(scn.setup, start=inp.start)
+    model, _, xp, yp = build_slope(
+        scn.params, setup, layout, inp.slope_deg, inp.tau_peak, inp.fall_deg, **inp.snow_kwargs()
+    )
+    i, j = (xp / setup.dx).astype(int), (yp / setup.dx).astype(int)
+    assert not np.any(steep[i, j]) and not np.any(masked[i, j])
+    assert xp.size == np.sum(~steep & ~masked)
+    assert np.array_equal(inp.cover, ~steep & ~masked)
+    # no particle work where there is no snow: the run's particle count is the cover's
+    res = quiet(slope_fields.simulate, scn)
+    assert res.summary["n_particles"] == xp.size
+    assert res.summary["snow_area_m2"] == pytest.approx(xp.size * setup.dx**2)
+    assert np.array_equal(res.snow, inp.cover)
+
+
+def test_depth_map_and_slope_corrected_thickness(tmp_path):
+    """snow.kind = "depth_map": h = HS cos(psi) per cell; "slope_corrected": d0* f(psi);
+    a cell thinner than snow.min_thickness holds no slab."""
+    dem = _tilted_dem(tmp_path)
+    doc = _dem_doc(dem, max_slope_deg=60.0)
+    doc["snow"] = {"kind": "depth_map", "file": "hs.asc", "min_thickness": 0.25}
+    doc["setup"]["dx"] = 0.2
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    inp = slope_fields.resolve_inputs(scn)
+    psi = np.asarray(inp.slope_deg)
+    want = 0.6 * np.cos(np.radians(psi))
+    np.testing.assert_allclose(inp.thickness[inp.cover], want[inp.cover], rtol=1e-9)
+    # 0.6 cos(psi) < 0.25 above 65.4 deg; the 60 deg limit comes first here
+    assert np.all(inp.thickness[inp.cover] >= 0.25)
+    doc["snow"] = {"kind": "slope_corrected", "reference_thickness": 0.8}
+    inp = slope_fields.resolve_inputs(quiet_parse(doc, base_dir=tmp_path))
+    want = 0.8 * snow_cover.slope_correction(psi)
+    np.testing.assert_allclose(inp.thickness[inp.cover], want[inp.cover], rtol=1e-9)
+
+
+def test_snow_key_errors_name_the_key(tmp_path):
+    dem = _tilted_dem(tmp_path)
+    for snow, match in (
+        ({"max_slope_deg": 95.0}, r"snow.max_slope_deg = 95.0: must be a number in \(0, 90\]"),
+        ({"kind": "depth_map"}, "snow.file: missing"),
+        ({"kind": "deep"}, "snow.kind"),
+        ({"reference_thickness": 1.0}, 'only for snow.kind = "slope_corrected"'),
+    ):
+        doc = _dem_doc(dem)
+        doc["snow"] = {"kind": "uniform", **snow}
+        with pytest.raises(ValueError, match=match):
+            quiet_parse(doc, base_dir=tmp_path)
+    doc = _dem_doc(dem)
+    doc["strength"] = {"kind": "stability", "mean": 0.9}
+    with pytest.raises(ValueError, match=r"strength.mean = 0.9: must be a number in \(1, inf\)"):
+        quiet_parse(doc, base_dir=tmp_path)
+    doc["strength"] = {"kind": "coulomb", "cohesion": 300.0}
+    with pytest.raises(ValueError, match="strength.friction_coefficient: missing"):
+        quiet_parse(doc, base_dir=tmp_path)
+
+
+# --------------------------------------------------------------------------- bitwise
+
+
+def _plain_doc(**extra) -> dict:
+    doc = {
+        "type": "slope",
+        "name": "plain",
+        "params": {"thickness": 0.5, "tensile_strength": 4000.0, "softening": 1.0},
+        "setup": {
+            "length": 8.0,
+            "width": 4.0,
+            "dx": 0.1,
+            "duration": 0.12,
+            "start": [3.0, 2.0],
+            "particles_per_cell": 1,
+            "chunk_steps": 40,
+        },
+        "terrain": {"kind": "generic", "toe_length": 2.0, "roll_length": 2.0},
+        "strength": {"kind": "grf", "mean": 1000.0, "std": 100.0, "length_scale": 2.0},
+    }
+    doc.update(extra)
+    return doc
+
+
+def test_uniform_thickness_is_bitwise_todays_run():
+    """A uniform snow cover (scenario [snow] kind = "uniform", or a uniform thickness map
+    through the API) runs the scalar model: bitwise the maps of the run without it; and
+    the step with outflow (every slope now) is bitwise the step without it (the run of
+    earlier versions) while no particle leaves."""
+    base = quiet_parse(_plain_doc())
+    snow = quiet_parse(_plain_doc(snow={"kind": "uniform", "max_slope_deg": 60.0}))
+    a = quiet(slope_fields.simulate, base)
+    b = quiet(slope_fields.simulate, snow)
+    for name in ("height", "arrival_time", "tension", "opening", "tau_peak"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert a.summary["release_area_m2"] > 1.0  # a cut that failed the layer: not at rest
+    slope, fall, tau, start = slope_fields.resolve_fields(base)
+    setup = dataclasses.replace(base.setup, start=start)
+    layout = make_slope_layout(base.params, setup, float(np.max(slope)))
+    nx, ny = layout.n_cells
+    runs = []
+    for kw in ({"outflow": False}, {"thickness": np.full((nx, ny), 0.5)}):
+        model, state, _, _ = build_slope(base.params, setup, layout, slope, tau, fall, **kw)
+        final, *_ = integrate(model, state, layout.n_chunks, layout.chunk_steps)
+        runs.append(final)
+    assert runs[0].outflow is None and runs[1].outflow is not None
+    old, new = (dataclasses.replace(r, outflow=None) for r in runs)
+    for x, y in zip(jax.tree.leaves(old), jax.tree.leaves(new), strict=True):
+        assert np.array_equal(np.asarray(x), np.asarray(y), equal_nan=True)
+
+
+# --------------------------------------------------------------------------- weak layer
+
+
+def test_stability_field_stays_above_one():
+    """S - 1 log-normal: S > 1 on every cell of a drawn field, whatever the spread, with
+    the mean and coefficient of variation asked for (over many correlation lengths)."""
+    x = (np.arange(400) + 0.5) * 0.5
+    for seed, cov in ((0, 0.1), (1, 0.3), (2, 0.6)):
+        s = fields.stability_field(
+            jax.random.key(seed), x, 400, 0.5, mean=1.42, cov=cov, length_scale=4.0
+        )
+        assert s.min() > 1.0
+        assert s.mean() == pytest.approx(1.42, rel=0.05)
+        assert s.std() / s.mean() == pytest.approx(cov, rel=0.2)
+
+
+def _strength_map(tmp_path, doc, weak_at, tau=5000.0, weak=100.0) -> None:
+    """A CSV strength map on the run's cell centres, ``weak`` Pa at one cell."""
+    s = doc["setup"]
+    x = (np.arange(round(s["length"] / s["dx"])) + 0.5) * s["dx"]
+    y = (np.arange(round(s["width"] / s["dx"])) + 0.5) * s["dx"]
+    xx, yy = np.meshgrid(x, y, indexing="ij")
+    t = np.full(xx.shape, tau)
+    i, j = np.argmin(np.abs(x - weak_at[0])), np.argmin(np.abs(y - weak_at[1]))
+    t[i, j] = weak
+    rows = np.column_stack([xx.ravel(), yy.ravel(), t.ravel()])
+    np.savetxt(tmp_path / "tau.csv", rows, delimiter=",", header="x_m,y_m,tau_peak_pa", comments="")
+    doc["strength"] = {"kind": "map", "file": str(tmp_path / "tau.csv")}
+
+
+def test_one_cell_failing_under_its_own_slab_refuses_the_run(tmp_path):
+    """One snow-covered cell outside the trigger whose weak layer fails under its own slab
+    at t = 0 stops the scenario with one line (how many, where); one inside the trigger
+    does not; strength.natural_release = true runs it."""
+    doc = _plain_doc()
+    _strength_map(tmp_path, doc, weak_at=(6.0, 1.0))
+    with pytest.raises(ValueError) as err:
+        quiet_parse(doc)
+    msg = str(err.value)
+    assert "\n" not in msg and "on 1 snow-covered cells" in msg
+    assert "x = 6.0 m, y = 1.0 m" in msg and "strength.natural_release" in msg
+    doc["strength"]["natural_release"] = True
+    with pytest.warns(UserWarning, match="natural release"):
+        scenario.parse(doc)
+    _strength_map(tmp_path, doc, weak_at=(3.5, 2.5))  # within 2 m of the start
+    quiet_parse(doc)
+
+
+def test_t0_failures_report_no_crack_speed():
+    """A weak layer that fails everywhere under its own slab at t = 0 releases the area
+    at once: the summary has its area, and no crack speed (no front ran)."""
+    setup = SlopeSetup(length=8.0, width=4.0, dx=0.1, duration=0.1, start=(4.0, 2.0),
+                       particles_per_cell=1, chunk_steps=50)  # fmt: skip
+    res = quiet(simulate_slope, SLAB, setup, slope_deg=40.0, tau_peak=400.0)
+    s = res.summary
+    assert s["initial_failure_area_m2"] == pytest.approx(32.0, rel=1e-6)
+    assert s["release_area_m2"] == pytest.approx(32.0, rel=1e-6)
+    for key in ("upslope_crack_speed_over_cs", "crossslope_crack_speed_over_cs"):
+        assert s[key] is None, key
+
+
+def test_coulomb_strength_follows_the_normal_stress():
+    """strength.kind = "coulomb": tau_p = cohesion + mu rho g h0 cos(psi) at each
+    particle."""
+    setup = SlopeSetup(length=2.0, width=2.0, dx=0.1, duration=0.01, start=(1.0, 1.0),
+                       particles_per_cell=1, chunk_steps=5)  # fmt: skip
+    psi = np.full((20, 20), 38.0)
+    h = np.full((20, 20), 0.4)
+    h[10:] = 0.8
+    layout = make_slope_layout(SLAB, setup, 38.0)
+    model, *_ = build_slope(SLAB, setup, layout, psi, 300.0, thickness=h, wl_friction=0.6)
+    want = 300.0 + 0.6 * 250.0 * 9.81 * np.asarray(model.thickness) * math.cos(math.radians(38))
+    np.testing.assert_allclose(np.asarray(model.tau_peak), want, rtol=1e-5)
+
+
+# --------------------------------------------------------------------------- thickness
+
+
+def test_thickness_step_at_rest_has_a_continuous_membrane_force():
+    """A slab whose thickness steps from 0.4 to 0.8 m across a generic slope, on a weak
+    layer that holds it: at rest, its membrane force N = sigma_xx h0 is continuous across
+    the step (each column carries its own weight on its own layer, the mass, the
+    pre-load and the internal force follow the particle's thickness)."""
+    from damjax import terrain
+
+    setup = SlopeSetup(length=12.0, width=2.0, dx=0.1, duration=0.3, start=(0.5, 1.0),
+                       particles_per_cell=2, chunk_steps=100)  # fmt: skip
+    params = dataclasses.replace(SLAB, saw_speed=1e-4, tensile_strength=math.inf)
+    x = (np.arange(120) + 0.5) * 0.1
+    psi = np.asarray(terrain.generic_slope_angle(x, length=12.0, toe_length=3.0, roll_length=3.0))
+    psi = np.repeat(psi[:, None], 20, axis=1)
+    h = np.where(x[:, None] < 6.0, 0.4, 0.8) * np.ones((1, 20))
+    res = quiet(simulate_slope, params, setup, slope_deg=psi, tau_peak=1e6, thickness=h)
+    n = res.tension * res.thickness  # [N/m]
+    scale = 250.0 * 9.81 * 0.8 * math.sin(math.radians(35.0)) * 0.5  # rho g h sin(psi) x 0.5 m
+    jump = np.abs(n[60, 5:15] - n[59, 5:15])
+    assert np.max(jump) < 1e-3 * scale
+    assert np.max(np.abs(n)) < 1e-2 * scale
+    assert res.summary["release_area_m2"] < 0.1 and res.summary["fault"] is None
+
+
+# --------------------------------------------------------------------------- domain
+
+
+def test_outflow_leaves_the_run_and_is_counted():
+    """A released slab sliding over the grid's lower edge leaves the run (counted in the
+    summary), instead of stopping it with a fault."""
+    setup = SlopeSetup(length=8.0, width=4.0, dx=0.1, duration=0.8, start=(4.0, 2.0),
+                       particles_per_cell=1, chunk_steps=50)  # fmt: skip
+    layout = make_slope_layout(SLAB, setup, 40.0)
+    nx = layout.n_cells[0]
+    pad = 3  # a lower edge 3 cells below the slab: it slides out
+    layout = dataclasses.replace(
+        layout,
+        pad=(pad, layout.pad[1]),
+        grid_shape=(pad + nx + layout.pad[1], layout.grid_shape[1]),
+    )
+    res = quiet(simulate_slope, SLAB, setup, slope_deg=40.0, tau_peak=400.0, layout=layout)
+    s = res.summary
+    assert s["fault"] is None and s["n_steps"] == layout.n_steps
+    assert s["outflow_particles"] > 0
+    assert s["outflow_area_m2"] == pytest.approx(s["outflow_particles"] * 0.01)
+    assert np.all(np.isfinite(res.height))
+
+
+def test_domain_edge_fraction_counts_boundary_faces():
+    rel = np.zeros((6, 5), bool)
+    rel[0:2, 1:4] = True  # on the rectangle's lower edge: 3 of its 10 faces
+    assert domain_edge_fraction(rel) == pytest.approx(3 / 10)
+    dom = np.ones_like(rel)
+    dom[2, :] = False  # outside the domain above it: 3 more faces
+    assert domain_edge_fraction(rel, dom) == pytest.approx(6 / 10)
+    assert domain_edge_fraction(np.zeros_like(rel)) is None
+
+
+def test_random_triggers_lie_in_the_start_zone(tmp_path):
+    """strength.trigger = "random" starts each seed's crack in the start zone (snow-covered,
+    28-60 deg), at different places for different seeds (an ensemble's members)."""
+    dem = _tilted_dem(tmp_path, steep_from=2.0)
+    doc = _dem_doc(dem, max_slope_deg=60.0, start_min_slope_deg=40.0)
+    doc["strength"]["trigger"] = "random"
+    del doc["setup"]["start"]
+    starts = []
+    for seed in range(4):
+        doc["strength"]["seed"] = seed
+        inp = slope_fields.resolve_inputs(quiet_parse(doc, base_dir=tmp_path))
+        i, j = int(inp.start[0] / 0.25), int(inp.start[1] / 0.25)
+        psi = np.asarray(inp.slope_deg)[i, j]
+        assert inp.start_zone[i, j] and 40.0 <= psi <= 60.0
+        starts.append(inp.start)
+    assert len(set(starts)) == 4
+
+
+def test_arrival_sources_counts_independent_starts():
+    x, y = np.meshgrid(np.arange(100) * 0.1, np.arange(80) * 0.1, indexing="ij")
+    one = np.hypot(x - 3, y - 4) / 50.0
+    assert arrival_sources(one, 0.1) == 1
+    two = np.minimum(one, np.hypot(x - 8, y - 1) / 50.0 + 0.01)
+    assert arrival_sources(two, 0.1) == 2
+    assert arrival_sources(np.full_like(one, np.inf), 0.1) == 0
+
+
+def test_snow_cover_runs_stay_differentiable_and_vmappable():
+    """A run with a thickness map, a cover with holes and a stability field is traced as
+    any other: jax.grad of the smooth release area with respect to the stability map is
+    finite and non-zero, and jax.vmap over two maps gives each member's own run."""
+    setup = SlopeSetup(length=2.0, width=1.5, dx=0.1, duration=0.02, start=(1.0, 0.7),
+                       particles_per_cell=1, chunk_steps=10)  # fmt: skip
+    cover = np.ones((20, 15), bool)
+    cover[:, :3] = False
+    h = np.full((20, 15), 0.4)
+    h[10:] = 0.6
+    brittle = dataclasses.replace(SLAB, softening=0.0)  # the pre-load is 1 / S of u_r
+
+    def area(s):
+        r = simulate_slope(brittle, setup, slope_deg=38.0, tau_peak=1.0, thickness=h,
+                           cover=cover, stability=s)  # fmt: skip
+        return r.summary["release_area_smooth_m2"]
+
+    s0 = jnp.full((20, 15), 1.3)
+    g = quiet(jax.grad(area), s0)
+    assert np.all(np.isfinite(g)) and np.any(g != 0)
+    both = quiet(jax.vmap(area), jnp.stack([s0, 1.2 * s0]))
+    one = quiet(area, 1.2 * s0)
+    assert float(both[1]) == pytest.approx(float(one), rel=1e-5)
+
+
+def test_the_gis_frame_is_the_runs_own_where_the_domain_leaves_the_dem(tmp_path):
+    """A snow-covered rectangle whose up-slope end lies past the DEM (a buffer's rectangle
+    clipped to the terrain): the GIS frame (AvaFrame and GeoTIFF exports) maps the cells
+    to the map points the run was built on instead of failing off the DEM."""
+    import xarray as xr
+
+    from damjax import terrain
+    from damjax.export import gis
+
+    dem = _tilted_dem(tmp_path)
+    dx = 0.5
+    x = (np.arange(180) + 0.5) * dx  # 90 m along the surface: the DEM ends before
+    y = (np.arange(60) + 0.5) * dx
+    ter = terrain.load_dem(dem)
+    with pytest.raises(ValueError):  # a rectangle that must lie on the DEM
+        slope_fields.dem_fields(ter, x, y, (1.0, 1.0), "+x")
+    _, _, px, py = slope_fields.dem_fields(
+        ter, x, y, (1.0, 1.0), "+x", nodata=True, map_points=True
+    )
+    ds = xr.Dataset(coords={"x": x, "y": y})
+    doc = {"terrain": {"kind": "dem", "file": str(dem), "origin": [1.0, 1.0], "upslope": "+x"}}
+    fr = gis.frame_of(ds, scenario=doc)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    mx, my = fr.to_map(X, Y)
+    np.testing.assert_allclose(mx, px, atol=1e-6)
+    np.testing.assert_allclose(my, py, atol=1e-6)
+
+
+def test_summary_crack_speeds_leave_out_speeds_no_front_reaches():
+    """Along a band, a front at 50 m/s and then a stretch whose arrival times barely rise
+    (cells failing together, or a front from the side crossing the band at a slant): the
+    peak and mean speeds leave out what is faster than the slab's wave speed."""
+    from damjax import theory
+    from damjax.slope.simulation import _front_speed
+
+    limit = float(theory.plane_stress_wave_speed(PSTParams()))
+    coord = np.arange(0.0, 40.0, 0.25) + 0.125
+    t = np.where(coord < 20.0, coord / 50.0, 0.4 + (coord - 20.0) / 5000.0)
+    mean0, peak0 = _front_speed(coord, t, 0.0, 40.0)
+    assert peak0 > 10 * limit  # without the limit: an apparent speed
+    mean, peak = _front_speed(coord, t, 0.0, 40.0, limit=limit)
+    assert 50.0 * (1 - 1e-6) <= peak <= limit
+    assert math.isnan(mean) or mean <= limit
+    # a front that runs throughout keeps its speeds
+    m1, p1 = _front_speed(coord, coord / 50.0, 0.0, 40.0, limit=limit)
+    assert m1 == pytest.approx(50.0) and p1 == pytest.approx(50.0)
