@@ -388,8 +388,8 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
 
     area = failed_area(model, state, width)
     if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
-        length = jnp.max(model.saw_coord) + jnp.min(model.saw_coord)
-        area = area / (model.saw_coord.size * model.area0 / length)
+        length = jnp.max(model.saw.saw_coord) + jnp.min(model.saw.saw_coord)
+        area = area / (model.saw.saw_coord.size * model.slab.area0 / length)
     return area
 
 
@@ -402,8 +402,8 @@ def weak_layer_damage(model: Any, state: Any, width: float | None = None) -> Any
 
     from damjax.core.step import front_width
 
-    finite = jnp.isfinite(model.u_res)
-    u_r = jnp.where(finite, model.u_res, 1.0)
+    finite = jnp.isfinite(model.weak_layer.u_res)
+    u_r = jnp.where(finite, model.weak_layer.u_res, 1.0)
     if width is None:
         ramp = c1_ramp((state.u_max - u_r) / (LENGTH_RAMP * front_width(model)))
     else:
@@ -418,10 +418,10 @@ def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
     (particles with u_max >= u_r)."""
     import jax.numpy as jnp
 
-    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
-    cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
+    spacing = model.slab.area0 if model.dim == 1 else jnp.sqrt(model.slab.area0)
+    cut = jnp.clip((state.saw_pos - model.saw.saw_coord) / spacing + 0.5, 0.0, 1.0)
     damage = jnp.maximum(weak_layer_damage(model, state, width), cut)
-    return jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
+    return jnp.sum(damage) * model.slab.area0  # 1D: area0 is the particle spacing [m]
 
 
 def _none(v: float) -> float | None:

@@ -66,8 +66,9 @@ def weak_layer_shear(model: Model, state: State) -> Any:
     softening, the friction cap tau_r where broken (an upper bound when at rest)."""
     broken = broken_mask(model, state)
     tau_r = residual_shear(model, state)
+    wl = model.weak_layer
     k = weak_layer.cohesive_factor(
-        state.u_max, model.tau_peak, tau_r, model.stiffness, model.softening, broken
+        state.u_max, wl.tau_peak, tau_r, wl.stiffness, wl.softening, broken
     )
     slip = mcc._sqrt(jnp.sum(state.u * state.u, axis=0))  # finite gradient at zero slip
     return jnp.where(broken, tau_r, k * slip)
@@ -471,8 +472,8 @@ def finish(
     info: Any,
 ) -> PSTResult:
     """Assemble a `PSTResult` from a finished (or faulted) run."""
-    x_ref = np.asarray(model.saw_coord)
-    tau_p = np.asarray(model.tau_peak)
+    x_ref = np.asarray(model.saw.saw_coord)
+    tau_p = np.asarray(model.weak_layer.tau_peak)
     dt = float(model.dt)
     times = dt * np.arange(1, tips.size + 1)
     fault = None
@@ -486,7 +487,7 @@ def finish(
     sigma_xx = np.asarray(final.sigma[0])
     height, wl_shear, smooth = (np.asarray(v) for v in _host_diagnostics(model, final))
     opening = np.asarray(final.opening)
-    if model.plastic and not model.crack_band:
+    if model.fracture.plastic and not model.fracture.crack_band:
         fractures = _crack_fractures(params, setup, x_ref, final, times, tips)
     else:
         fractures = slab_fractures(model, final)
@@ -561,15 +562,15 @@ def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     to the crack (`damjax.diagnostics.crack_fractures`), which needs the tip
     history. Models without a particle lattice use the opening strain
     (`damjax.diagnostics.slab_fractures`)."""
-    x_ref = np.asarray(model.saw_coord)
-    if model.lattice:
-        w = np.asarray(band_opening(model, state.opening, opening_y=state.opening_y))
+    x_ref = np.asarray(model.saw.saw_coord)
+    if model.fracture.lattice:
+        w = np.asarray(band_opening(model.fracture, state.opening, opening_y=state.opening_y))
         return diagnostics.band_fractures(x_ref, w, np.asarray(state.t_fracture))
     return diagnostics.slab_fractures(
         x_ref,
         np.asarray(state.opening),
         np.asarray(state.t_fracture),
-        float(np.min(np.asarray(fracture_strain(model)))),
+        float(np.min(np.asarray(fracture_strain(model.fracture)))),
         diagnostics.FRACTURE_GAP,
     )
 
@@ -679,14 +680,14 @@ def _simulate_traced(prep: Prepared) -> PSTResult:
     return PSTResult(
         params=params,
         setup=setup,
-        x=model.saw_coord,
-        time=model.dt * jnp.arange(1, layout.n_steps + 1, dtype=model.saw_coord.dtype),
+        x=model.saw.saw_coord,
+        time=model.dt * jnp.arange(1, layout.n_steps + 1, dtype=model.saw.saw_coord.dtype),
         tip=tips,
         sigma_xx=final.sigma[0],
         height=column_height(model, final),
         slip=final.u[0],
         u_max=final.u_max,
-        tau_peak=model.tau_peak,
+        tau_peak=model.weak_layer.tau_peak,
         opening=final.opening,
         wl_shear=weak_layer_shear(model, final),
         snapshots={},

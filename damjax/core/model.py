@@ -29,8 +29,11 @@ from damjax import theory
 from damjax._tracing import is_traced
 from damjax.constants import G_ACC
 from damjax.core import transfer
-from damjax.core.state import Model, State, zero_components
+from damjax.core.state import Grid, Model, Saw, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
+from damjax.materials.slab import Slab
+from damjax.materials.slab_fracture import Fracture
+from damjax.materials.weak_layer import WeakLayer
 from damjax.params import (
     FALL_DEG_SPEC,
     STABILITY_SPEC,
@@ -329,18 +332,18 @@ def _model_and_state(
     ``cell0``, ``frac0``: the particles' reference cells and offsets (dim, n);
     ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
     its runtime checks; ``thickness``: h0 [m], a scalar or (n,) per particle (None:
-    ``params.thickness``); ``area0``: the reference column-base area
-    per particle [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa],
-    ``fracture_energy`` G_f [J/m^2], ``slab_fields``: the slab law and the static
-    slab-fracture fields (`_slab_fracture`); ``psi``: the slope
-    angle [rad] (scalar or (n,)); ``phi``: the weak layer's friction angle [rad];
-    ``g_tangent``: gravity along the slope (dim, n)
+    ``params.thickness``); ``area0``: the reference column-base area per particle
+    [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa], ``fracture_energy`` G_f
+    [J/m^2] and ``slab_fields``, the static fields of the slab fracture model
+    (`_slab_fracture`); ``psi``: the slope angle [rad] (scalar or (n,)); ``phi``: the
+    weak layer's friction angle [rad]; ``g_tangent``: gravity along the slope (dim, n)
     [m/s^2]; ``stiffness``: K [Pa/m]; ``tau_peak``, ``u_res``: (n,) strength [Pa] and
-    residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium with
-    an unstressed slab, (dim, n), and its magnitude, (n,) [m]. Everything else comes
-    from ``params`` and ``setup``. The derived constants (front width, w_c) are derived
-    once here, not every step. ``outflow``: a particle that slides over the grid's edge
-    leaves the run (`State.outflow`) instead of stopping it with a fault.
+    residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium
+    with an unstressed slab, (dim, n), and its magnitude, (n,) [m]; ``outflow``: a
+    particle that slides over the grid's edge leaves the run (`State.outflow`) instead
+    of stopping it with a fault. Everything else comes from ``params`` and ``setup``.
+    The derived constants (front width, w_c, the smallest mass) are derived once here,
+    not every step (`Model.with_constants`).
 
     ``preload`` is called after the model is made: reverse mode sums the cotangents of a
     traced parameter (K, rho, psi) in the reverse order of its uses, so that order is
@@ -350,21 +353,25 @@ def _model_and_state(
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     n = saw_coord.shape[0]
     dim = len(grid_shape)
-    model = Model(
+    # made in this order (grid, slab, fracture, gravity, weak layer, saw): the order of the
+    # operations is the order of a traced parameter's uses, part of a gradient's bits
+    # (`preload`)
+    grid = Grid(
         grid_shape=grid_shape,
         dx=float(setup.dx),
         periodic=periodic,
-        lateral=lateral,
-        saw_stops=saw_stops,
         cell0=jnp.asarray(cell0, jnp.int32),
         frac0=jnp.asarray(frac0, dtype),
-        saw_coord=saw_coord,
-        dt=dt,
+    )
+    slab = Slab(
         density=f(params.density),
         thickness=f(params.thickness) if thickness is None else thickness,
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
+        lateral=lateral,
+    )
+    fracture = Fracture(
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
             tensile_strength,
@@ -377,18 +384,34 @@ def _model_and_state(
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
         fracture_energy=f(fracture_energy),
-        g_tangent=g_tangent,
-        g_normal=jnp.broadcast_to(G_ACC * jnp.cos(psi), (n,)),
+        cell_width=float(setup.dx),
+        mcc_invariants=setup.mcc_invariants,
+        **slab_fields,
+    )
+    g_normal = jnp.broadcast_to(G_ACC * jnp.cos(psi), (n,))
+    layer = WeakLayer(
         stiffness=stiffness,
         tau_peak=tau_peak,
         softening=f(params.softening),
         u_res=u_res,
         friction=jnp.tan(phi),
+    )
+    saw = Saw(
+        saw_coord=saw_coord,
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
-        mcc_invariants=setup.mcc_invariants,
+        saw_stops=saw_stops,
+    )
+    model = Model(
+        grid=grid,
+        slab=slab,
+        fracture=fracture,
+        weak_layer=layer,
+        saw=saw,
+        dt=dt,
+        g_tangent=g_tangent,
+        g_normal=g_normal,
         accumulation=transfer.resolve_accumulation(setup.accumulation),
-        **slab_fields,
     ).with_constants()
     u0, u_max = preload()
     state = State(
@@ -425,7 +448,7 @@ def _slab_fracture(
     lattice_for_paper: bool = True,
 ) -> tuple[Any, Any, dict[str, Any]]:
     """The slab's tensile strength [Pa] (per particle for "crack_band"), its fracture
-    energy G_f [J/m^2] and the static `Model` fields of the slab fracture model
+    energy G_f [J/m^2] and the static fields of the slab fracture model (`Fracture`)
     (`PSTSetup.slab_fracture`; `damjax.materials.slab_fracture`).
 
     Every plastic slab gets the particles' lattice (x-major, ``lattice`` particles per

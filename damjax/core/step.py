@@ -73,16 +73,16 @@ def front_width(model: Model) -> Any:
     """Slip range [m] across a particle's segment of weak layer near a crack front
     (`damjax.materials.weak_layer.front_width`), from the particle spacing and the
     elastic length Lambda = sqrt(E h / ((1 - nu^2) K_wl)); derived once when the model is
-    built (`Model.front_width`)."""
-    if model.front_width is not None:
-        return model.front_width
-    return model.with_constants().front_width  # a model built without its constants
+    built (`WeakLayer.front_width`)."""
+    if model.weak_layer.front_width is not None:
+        return model.weak_layer.front_width
+    return model.with_constants().weak_layer.front_width  # built without its constants
 
 
 def broken_mask(model: Model, state: State) -> Any:
     """Where the weak layer has lost all cohesion (sawn or fully softened)."""
-    cut = model.saw_coord < state.saw_pos
-    return weak_layer.is_broken(state.u_max, model.u_res, cut)
+    cut = model.saw.saw_coord < state.saw_pos
+    return weak_layer.is_broken(state.u_max, model.weak_layer.u_res, cut)
 
 
 def constitutive(
@@ -102,15 +102,17 @@ def constitutive(
     is a new buffer that the time loop copies into its carry every step (1D baseline:
     a broadcast and two copies, 9 of ~215 us per step).
     """
-    E, nu = model.youngs_modulus, model.poisson
+    E, nu = model.slab.youngs_modulus, model.slab.poisson
     eps_p = tuple(state.eps_p)
     zero = jnp.zeros_like(eps[0])
-    if model.plastic and start is None:
-        start = slab_fracture.step_start(model, state)
-    if model.dim == 1 and model.lateral == "free":
+    if model.fracture.plastic and start is None:
+        start = slab_fracture.step_start(model.slab, model.fracture, state)
+    if model.dim == 1 and model.slab.lateral == "free":
         sig_tr = E * (eps[0] - eps_p[0])
-        if model.plastic:
-            sxx, dxx, dyy = slab_fracture.return_map_uniaxial(model, state, sig_tr, start)
+        if model.fracture.plastic:
+            sxx, dxx, dyy = slab_fracture.return_map_uniaxial(
+                model.slab, model.fracture, sig_tr, start
+            )
             eps_p = (eps_p[0] + dxx, eps_p[1] + dyy, eps_p[2])
             d_open = jnp.maximum(dxx, 0.0)
         else:
@@ -120,9 +122,11 @@ def constitutive(
     if model.dim == 1:  # constrained: eps_yy = 0
         eps = (eps[0], state.eps[1], eps[2])
     eps_e = tuple(a - b for a, b in zip(eps, eps_p, strict=True))
-    if not model.plastic:
+    if not model.fracture.plastic:
         return eps, slab.plane_stress(eps_e, E, nu), eps_p, zero, None
-    sigma, d_eps_p, d_open, d_open_y = slab_fracture.return_map_plane(model, state, eps_e, start)
+    sigma, d_eps_p, d_open, d_open_y = slab_fracture.return_map_plane(
+        model.slab, model.fracture, state, eps_e, start
+    )
     eps_p = tuple(a + b for a, b in zip(eps_p, d_eps_p, strict=True))
     return eps, sigma, eps_p, d_open, (None if model.dim == 1 else d_open_y)
 
@@ -222,13 +226,13 @@ def weak_layer_forces(model: Model, state: State) -> WeakLayerForces:
     [m/s^2]."""
     with jax.named_scope("weak_layer"):
         dt = model.dt
-        cut = model.saw_coord < state.saw_pos
+        cut = model.saw.saw_coord < state.saw_pos
         k_sec = weak_layer.cohesive_factor(
             state.u_max,
-            model.tau_peak,
+            model.weak_layer.tau_peak,
             residual_shear(model, state),
-            model.stiffness,
-            model.softening,
+            model.weak_layer.stiffness,
+            model.weak_layer.softening,
             cut,
         )
         # Failure without events: a particle's segment of weak layer fails progressively as
@@ -238,16 +242,19 @@ def weak_layer_forces(model: Model, state: State) -> WeakLayerForces:
         # (`damjax.materials.weak_layer`), so reverse mode carries the shift of every
         # failure.
         time = state.time + dt
-        saw_pos = jnp.where(state.saw_active, model.saw_speed * time, state.saw_pos)
+        saw_pos = jnp.where(state.saw_active, model.saw.saw_speed * time, state.saw_pos)
         slip, slip_rate = slip_and_rate(state.u, state.v, model.dim)
         failed = weak_layer.failed_fraction_in_step(
-            state.u_max, slip, slip_rate, model.u_res, front_width(model), dt
+            state.u_max, slip, slip_rate, model.weak_layer.u_res, front_width(model), dt
         )
-        unsawn = weak_layer.sawn_fraction(model.saw_coord, state.saw_pos, saw_pos)
+        unsawn = weak_layer.sawn_fraction(model.saw.saw_coord, state.saw_pos, saw_pos)
         intact = jnp.where(cut, 0.0, jnp.minimum(1.0 - failed, unsawn))
         J = slab.area_ratio(state.eps)
         # acceleration from gravity and cohesion; area0 / m = 1 / (rho h0)
-        acc = model.g_tangent - (J * k_sec * intact / (model.density * model.thickness)) * state.u
+        acc = (
+            model.g_tangent
+            - (J * k_sec * intact / (model.slab.density * model.slab.thickness)) * state.u
+        )
         return WeakLayerForces(time, saw_pos, intact, acc)
 
 
@@ -258,15 +265,15 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
     particles that left the grid (`State.outflow`) add nothing. ``mass``: the particle
     mass [kg] (`Model.mass`)."""
     with jax.named_scope("p2g"):
-        dim, dx, dt = model.dim, model.dx, model.dt
+        dim, dx, dt = model.dim, model.grid.dx, model.dt
         m, inv_d = mass, _inv_d(dx)
         # outflow (slopes): particles that slid over the grid's edge add nothing to the grid
         active = None if state.outflow is None else ~state.outflow
         sig = stress_tensor(state.sigma, dim)
-        c_sig = dt * inv_d * model.thickness * model.area0
+        c_sig = dt * inv_d * model.slab.thickness * model.slab.area0
         affine = [[m * state.C[a, b] - c_sig * sig[a][b] for b in range(dim)] for a in range(dim)]
         v_star = state.v + dt * wl.acc
-        fcap = (1.0 - wl.intact) * (m * model.friction * model.g_normal)
+        fcap = (1.0 - wl.intact) * (m * model.weak_layer.friction * model.g_normal)
         # the particles' P2G factors computed once, into buffers: XLA:CPU would recompute
         # their arithmetic (the weak layer's law included) in every fusion that builds a
         # P2G row, and slower still in the 64-bit rows of fixed-point sums
@@ -275,7 +282,14 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
         v_star, affine, fcap, u_p2g = transfer.materialise(
             (v_star, affine, fcap, state.u), finite_dt
         )
-        st = transfer.stencil(model.cell0, model.frac0, u_p2g, dx, model.grid_shape, model.periodic)
+        st = transfer.stencil(
+            model.grid.cell0,
+            model.grid.frac0,
+            u_p2g,
+            dx,
+            model.grid.grid_shape,
+            model.grid.periodic,
+        )
         n_nodes = model.n_nodes
         S = len(st.w)
         w_p2g = st.w
@@ -330,7 +344,7 @@ def grid_update(model: Model, sums: GridSums, mass: Any) -> GridVelocity:
         # nodes holding less than 1e-6 of a particle's mass count as empty: their velocity
         # p / m is ill-conditioned, and in 2D reverse mode the 1/m^2 of a node touched only
         # by a B-spline tail (weight ~1e-12) overflows float32 (0 * inf = NaN gradients)
-        has_mass = sums.mass > 1e-6 * (mass if model.mass_ref is None else model.mass_ref)
+        has_mass = sums.mass > 1e-6 * (mass if model.slab.mass_ref is None else model.slab.mass_ref)
         m_safe = jnp.where(has_mass, sums.mass, 1.0)
         inv_m = jnp.where(has_mass, 1.0 / m_safe, 0.0)
         vg = [p * inv_m for p in sums.momentum]
@@ -354,7 +368,7 @@ def grid_to_particles(
     (``active``: the particles still on the grid, `GridSums.active`), a particle whose
     stencil would leave the grid stops there and leaves the run."""
     with jax.named_scope("g2p"):
-        dim, inv_d = model.dim, _inv_d(model.dx)
+        dim, inv_d = model.dim, _inv_d(model.grid.dx)
         S = len(st.w)
         vs = transfer.g2p_channels(st, velocity)  # dim x S x (n,)
         v_rows, C_rows = [], []
@@ -392,8 +406,8 @@ def slab_law(model: Model, state: State, C: Any) -> SlabUpdate:
         # the fracture law's view of the step's start: band openings, strengths, fracture
         # times
         start, t_fracture = None, state.t_fracture
-        if model.plastic:  # an elastic slab never fractures
-            start = slab_fracture.step_start(model, state)
+        if model.fracture.plastic:  # an elastic slab never fractures
+            start = slab_fracture.step_start(model.slab, model.fracture, state)
             t_fracture = start.t_fracture
         eps, sigma, eps_p, d_open, d_open_y = constitutive(
             model, state, tuple(a + b for a, b in zip(state.eps, d_eps, strict=True)), start
@@ -406,7 +420,7 @@ def slab_law(model: Model, state: State, C: Any) -> SlabUpdate:
 def crack_and_saw(model: Model, state: State, u: Any, time: Any, saw_pos: Any) -> CrackUpdate:
     """Phase 6, crack and saw: the maximum slip [m] at the new displacement ``u``, the time
     each particle's weak layer broke [s], the crack tip [m] and whether the saw still
-    cuts (it stops once the crack leads it by `Model.saw_lead` where `Model.saw_stops`).
+    cuts (it stops once the crack leads it by `Saw.saw_lead` where `Saw.saw_stops`).
     ``time``, ``saw_pos``: at the end of the step [s, m]."""
     with jax.named_scope("crack_and_saw"):
         # rows added elementwise: XLA:CPU reduces over a short leading axis in a slow loop
@@ -414,13 +428,15 @@ def crack_and_saw(model: Model, state: State, u: Any, time: Any, saw_pos: Any) -
         # sqrt with a finite gradient at zero slip (a 2D particle at rest on a flat cell)
         slip = mcc._sqrt(u[0] * u[0] + u[1] * u[1]) if model.dim > 1 else jnp.abs(u[0])
         u_max = jnp.maximum(state.u_max, slip)
-        broken_new = weak_layer.is_broken(u_max, model.u_res, model.saw_coord < saw_pos)
+        broken_new = weak_layer.is_broken(
+            u_max, model.weak_layer.u_res, model.saw.saw_coord < saw_pos
+        )
         t_broken = jnp.where(broken_new & jnp.isinf(state.t_broken), time, state.t_broken)
-        tip = jnp.max(jnp.where(broken_new, model.saw_coord, -jnp.inf))
+        tip = jnp.max(jnp.where(broken_new, model.saw.saw_coord, -jnp.inf))
         tip = jnp.maximum(tip, state.tip)
         saw_active = state.saw_active
-        if model.saw_stops:
-            saw_active = saw_active & (tip < saw_pos + model.saw_lead)
+        if model.saw.saw_stops:
+            saw_active = saw_active & (tip < saw_pos + model.saw.saw_lead)
         return CrackUpdate(u_max, t_broken, tip, saw_active)
 
 
@@ -439,8 +455,8 @@ def guards(
         log_tiny = float(np.log(np.finfo(eps[0].dtype).tiny))
         edge = jnp.zeros(st.base.shape[1:], bool)
         for d in range(model.dim):
-            if not model.periodic[d]:
-                edge = edge | (st.base[d] < 0) | (st.base[d] > model.grid_shape[d] - 3)
+            if not model.grid.periodic[d]:
+                edge = edge | (st.base[d] < 0) | (st.base[d] > model.grid.grid_shape[d] - 3)
         fault = (
             jnp.where(~jnp.all(jnp.isfinite(speed2)), FAULT_NAN, 0)
             | jnp.where(jnp.any(edge), FAULT_EDGE, 0)
@@ -456,22 +472,22 @@ def _off_grid(model: Model, u: Any) -> Any:
     grid's non-periodic edges (the runtime guard's test, `guards`)."""
     out = None
     for d in range(model.dim):
-        if model.periodic[d]:
+        if model.grid.periodic[d]:
             continue
-        base = model.cell0[d] + jnp.floor(model.frac0[d] + u[d] * (1.0 / model.dx) - 0.5).astype(
-            jnp.int32
-        )
-        o = (base < 0) | (base > model.grid_shape[d] - 3)
+        base = model.grid.cell0[d] + jnp.floor(
+            model.grid.frac0[d] + u[d] * (1.0 / model.grid.dx) - 0.5
+        ).astype(jnp.int32)
+        o = (base < 0) | (base > model.grid.grid_shape[d] - 3)
         out = o if out is None else out | o
     return jnp.zeros(u.shape[1:], bool) if out is None else out
 
 
 def residual_shear(model: Model, state: State) -> Any:
     """tau_r = rho g_n h tan(phi) per particle with the current column height [Pa]."""
-    h = model.thickness / slab.area_ratio(state.eps)
-    return model.density * model.g_normal * h * model.friction
+    h = model.slab.thickness / slab.area_ratio(state.eps)
+    return model.slab.density * model.g_normal * h * model.weak_layer.friction
 
 
 def column_height(model: Model, state: State) -> Any:
     """Current slab column height h = h0 / J [m]."""
-    return model.thickness / slab.area_ratio(state.eps)
+    return model.slab.thickness / slab.area_ratio(state.eps)

@@ -56,6 +56,7 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -63,6 +64,7 @@ import numpy as np
 from damjax import fields
 from damjax.constants import SLAB_FRACTURE_MODELS  # noqa: F401  (the choices, public here)
 from damjax.materials import mcc
+from damjax.materials.slab import Slab
 
 DEFAULT_FRACTURE_ENERGY = 0.12  # G_f [J/m^2]
 DEFAULT_STRENGTH_COV = 0.2  # coefficient of variation of sigma_t [-]
@@ -96,8 +98,9 @@ def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
 # `step_start` once per step and `return_map_uniaxial` or `return_map_plane` from its
 # constitutive update): band openings over windows fixed in metres, the strength a band
 # keeps (crack-band softening with G_f), and the MCC return maps that soften with it.
-# ``model`` and ``state`` are `damjax.core.state.Model` and `State` (read by attribute:
-# this module imports nothing from the core).
+# They take the model's parts they read (`Slab`, `Fracture`: ``model.slab``,
+# ``model.fracture`` of `damjax.core.state.Model`); ``state`` is the core's `State`, read
+# by attribute (this module imports nothing from the core).
 # --------------------------------------------------------------------------------------
 
 # A particle counts as opened (its strength follows its band's opening) once its own
@@ -106,6 +109,39 @@ def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
 OPENED = 1e-3
 FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture (no lattice) [-]
 FRACTURE_OPENING = 1e-3  # smallest band opening counted as a slab fracture [m]
+
+
+class Fracture(eqx.Module):
+    """The slab's plasticity and tensile fracture, its part of a run's model
+    (`damjax.core.state.Model.fracture`): the Modified Cam Clay constants
+    (`damjax.materials.mcc`; p0_init = inf: an elastic slab), the crack band's fracture
+    energy and the particles' lattice that band openings are summed over (SI units;
+    arrays traced, the rest static)."""
+
+    plastic: bool = eqx.field(static=True)  # False: skip the return mapping entirely
+    p0_init: Any  # initial consolidation pressure [Pa] (from the tensile strength)
+    mcc_m: Any  # critical-state slope M [-]
+    mcc_beta: Any  # tension parameter beta [-]
+    mcc_xi: Any  # volumetric softening xi [-]
+    fracture_energy: Any  # slab G_f [J/m^2] of the crack-band softening (inf: none)
+    # width of a band without a lattice [m]: one grid cell, dx (the opening strain x dx)
+    cell_width: float = eqx.field(static=True)
+    # stress invariants of the MCC yield function ("3d" or "plane", see materials.mcc)
+    mcc_invariants: str = eqx.field(static=True, default="3d")
+    # slab fracture model: True for "crack_band" (p0 softens with the band opening, needs
+    # the lattice), False for "paper" (with a finite G_f it softens with the opening
+    # strain x dx, one cell)
+    crack_band: bool = eqx.field(static=True, default=False)
+    # the particles as a regular lattice in their reference positions, x-major (particles
+    # per axis), its spacing [m], and the half-width in particles of the window over which
+    # the plastic opening strain is summed into a band opening [m] (`band_opening`);
+    # () : no lattice, opening = strain x dx
+    lattice: tuple[int, ...] = eqx.field(static=True, default=())
+    lattice_spacing: float = eqx.field(static=True, default=0.0)
+    opening_window: int = eqx.field(static=True, default=0)
+    # derived (`damjax.core.state.Model.with_constants`): the crack band's w_c [m]
+    # (`crack_band_opening`; None: derived where it is used, in every step)
+    band_w_c: Any = None
 
 
 class StepStart(NamedTuple):
@@ -118,7 +154,7 @@ class StepStart(NamedTuple):
     t_fracture: Any  # time each particle's band reached `fracture_opening` [s] (inf: not)
 
 
-def step_start(model: Any, state: Any) -> StepStart:
+def step_start(slab: Slab, fracture: Fracture, state: Any) -> StepStart:
     """Band openings, strengths and fracture times at the start of a step (plastic slabs).
 
     A band reaches the fracture opening when the largest window sum in it does: the window
@@ -127,43 +163,43 @@ def step_start(model: Any, state: Any) -> StepStart:
     step): the sums are the crack-band slab's own (`p0_and_band`), and a window of the new
     openings cost 0.05 of a 0.25 ms step.
     """
-    opening_y = state.opening_y if model.dim > 1 else None
-    if model.lattice:
-        plain, band = band_openings(model, state.opening, opening_y)
+    opening_y = state.opening_y if len(fracture.lattice) > 1 else None
+    if fracture.lattice:
+        plain, band = band_openings(fracture, state.opening, opening_y)
     else:
-        plain, band = band_opening(model, state.opening), None
+        plain, band = band_opening(fracture, state.opening), None
     t_fracture = jnp.where(
-        jnp.isinf(state.t_fracture) & (plain >= fracture_opening(model)),
+        jnp.isinf(state.t_fracture) & (plain >= fracture_opening(fracture)),
         state.time,
         state.t_fracture,
     )
-    p0, p0_band = p0_and_band(model, state, band)
-    return StepStart(plain if model.lattice else None, band, p0, p0_band, t_fracture)
+    p0, p0_band = p0_and_band(slab, fracture, state, band)
+    return StepStart(plain if fracture.lattice else None, band, p0, p0_band, t_fracture)
 
 
-def return_map_uniaxial(model: Any, state: Any, sig_tr: Any, start: StepStart) -> Any:
+def return_map_uniaxial(slab: Slab, fracture: Fracture, sig_tr: Any, start: StepStart) -> Any:
     """(sigma_xx [Pa], d eps_p_xx, d eps_p_yy) of a 1D free strip (uniaxial stress) from the
     trial stress ``sig_tr`` [Pa]: `damjax.materials.mcc.return_map_uniaxial`, or for the
     "crack_band" slab its energy-consistent softening map."""
-    if not (model.crack_band and model.lattice):
+    if not (fracture.crack_band and fracture.lattice):
         return mcc.return_map_uniaxial(
             sig_tr,
             start.p0,
-            model.mcc_m,
-            model.mcc_beta,
-            model.youngs_modulus,
-            model.mcc_invariants,
+            fracture.mcc_m,
+            fracture.mcc_beta,
+            slab.youngs_modulus,
+            fracture.mcc_invariants,
         )
     # the band's other particles open in the step too: each Newton step takes their
     # openings (the window sum, `band_opening`) at the current iterate, so the particles
     # of a band soften together and the band dissipates G_f h (20 m PST: 0.99-1.00 on dx
     # 0.08-0.02; with the other openings of the step's start, 1.10-1.28)
-    w_c = crack_band_opening(model)
-    rate = model.lattice_spacing / w_c
+    w_c = crack_band_opening(fracture)
+    rate = fracture.lattice_spacing / w_c
 
     def others(d: Any) -> Any:
         d = jnp.maximum(d, 0.0)
-        band = band_opening(model, d, spread=False)
+        band = band_opening(fracture, d, spread=False)
         return jnp.maximum(band / w_c - rate * d, 0.0)
 
     return mcc.return_map_uniaxial_softening(
@@ -172,34 +208,34 @@ def return_map_uniaxial(model: Any, state: Any, sig_tr: Any, start: StepStart) -
         start.p0_band,
         rate,
         others,
-        model.mcc_m,
-        model.mcc_beta,
-        model.youngs_modulus,
-        model.mcc_invariants,
-        settled=mcc.SETTLED * model.p0_init,
+        fracture.mcc_m,
+        fracture.mcc_beta,
+        slab.youngs_modulus,
+        fracture.mcc_invariants,
+        settled=mcc.SETTLED * fracture.p0_init,
     )
 
 
 def return_map_plane(
-    model: Any, state: Any, eps_e: Any, start: StepStart
+    slab: Slab, fracture: Fracture, state: Any, eps_e: Any, start: StepStart
 ) -> tuple[Any, Any, Any, Any]:
     """(sigma, d eps_p, d_opening, d_opening_y) of the plane-stress update from the trial
     elastic strain ``eps_e`` (xx, yy, xy rows): `damjax.materials.mcc.return_map_plane`, or
     for the "crack_band" slab its energy-consistent softening map; the opening increments
     from `principal_opening`."""
-    args = (model.mcc_m, model.mcc_beta, model.youngs_modulus, model.poisson)
-    args = (*args, model.mcc_invariants)
-    if model.crack_band and model.lattice:
+    args = (fracture.mcc_m, fracture.mcc_beta, slab.youngs_modulus, slab.poisson)
+    args = (*args, fracture.mcc_invariants)
+    if fracture.crack_band and fracture.lattice:
         # energy-consistent, as the 1D map: the band's strength averaged over the step's
         # opening (a fracture across a 0.3 m strip: 1.06-1.09 G_f h W on dx 0.08-0.02;
         # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
-        w_c = crack_band_opening(model)
+        w_c = crack_band_opening(fracture)
         o, oy = state.opening, state.opening_y
-        w0 = _jump(model, o, oy) if start.plain is None else start.plain
+        w0 = _jump(fracture, o, oy) if start.plain is None else start.plain
 
         def increase(d: Any) -> Any:
             d_open, d_open_y = principal_opening(d)
-            return jnp.maximum(_jump(model, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
+            return jnp.maximum(_jump(fracture, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
 
         sigma, d_eps_p = mcc.return_map_plane_softening(
             eps_e,
@@ -207,7 +243,7 @@ def return_map_plane(
             start.p0_band,
             increase,
             *args,
-            settled=mcc.SETTLED * model.p0_init,
+            settled=mcc.SETTLED * fracture.p0_init,
         )
     else:
         sigma, d_eps_p = mcc.return_map_plane(eps_e, start.p0, *args)
@@ -225,26 +261,32 @@ def principal_opening(d_eps_p: Any) -> tuple[Any, Any]:
     return d_open, d_open * jnp.clip(0.5 - 0.5 * half / r, 0.0, 1.0)
 
 
-def _jump(model: Any, opening: Any, opening_y: Any) -> Any:
+def _jump(fracture: Fracture, opening: Any, opening_y: Any) -> Any:
     """`band_opening` without spread: the window sums only."""
-    return band_openings(model, opening, opening_y)[0]
+    return band_openings(fracture, opening, opening_y)[0]
 
 
-def crack_band_opening(model: Any) -> Any:
+def crack_band_opening(fracture: Fracture) -> Any:
     """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none); derived once
-    when the model is built (``model.band_w_c``)."""
-    if getattr(model, "band_w_c", None) is not None:
-        return model.band_w_c
+    when the model is built (`Fracture.band_w_c`)."""
+    if fracture.band_w_c is not None:
+        return fracture.band_w_c
     return mcc.crack_band_opening(
-        model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
+        fracture.p0_init,
+        fracture.fracture_energy,
+        fracture.mcc_m,
+        fracture.mcc_beta,
+        fracture.mcc_invariants,
     )
 
 
-def band_opening(model: Any, opening: Any, spread: bool = True, opening_y: Any = None) -> Any:
+def band_opening(
+    fracture: Fracture, opening: Any, spread: bool = True, opening_y: Any = None
+) -> Any:
     """Opening w [m] of the tensile band through each particle, rows (n,).
 
-    With a particle lattice (`Model.lattice`), the plastic opening strain times the
-    particle spacing, summed over the particles within `Model.opening_window` of it along
+    With a particle lattice (`Fracture.lattice`), the plastic opening strain times the
+    particle spacing, summed over the particles within `Fracture.opening_window` of it along
     x. A localised band, one cell or a few wide, then has the same opening, its
     displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
     window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
@@ -257,29 +299,30 @@ def band_opening(model: Any, opening: Any, spread: bool = True, opening_y: Any =
     their length. Without it (a strain with no direction, such as a compaction): the
     smaller of the x and y sums of ``opening``, the sum across a band, not along it.
     """
-    if not model.lattice:
-        return opening * model.dx
-    return band_openings(model, opening, opening_y)[1 if spread else 0]
+    if not fracture.lattice:
+        return opening * fracture.cell_width
+    return band_openings(fracture, opening, opening_y)[1 if spread else 0]
 
 
-def band_openings(model: Any, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
-    """`band_opening` without and with ``spread``, from one set of window sums."""
-    k = model.opening_window
-    s = model.lattice_spacing
+def band_openings(fracture: Fracture, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
+    """`band_opening` without and with ``spread``, from one set of window sums (with a
+    lattice)."""
+    k = fracture.opening_window
+    s = fracture.lattice_spacing
     # the sum over the window centred on each particle, then its largest value over the
     # window: every particle of a band sees the band's whole opening, also near its edges
     # (without spread: the window sum only, the opening of the band centred there)
-    if model.dim == 1:
+    if len(fracture.lattice) == 1:
         w = _window(opening * s, k, jnp.add, 0.0, 0)
         return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
     if opening_y is None:
-        grid = jnp.reshape(opening * s, model.lattice)
+        grid = jnp.reshape(opening * s, fracture.lattice)
         w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
         spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
         return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
     parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
     w = [
-        _window(jnp.reshape(o, model.lattice), k, jnp.add, 0.0, axis)
+        _window(jnp.reshape(o, fracture.lattice), k, jnp.add, 0.0, axis)
         for axis, o in enumerate(parts)
     ]
     spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
@@ -315,7 +358,7 @@ def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
         span *= 2
 
 
-def fracture_opening(model: Any) -> Any:
+def fracture_opening(fracture: Fracture) -> Any:
     """Band opening [m] that marks a slab fracture, per particle.
 
     With a particle lattice: FRACTURE_OPENING (1 mm), or, with crack-band softening
@@ -324,10 +367,10 @@ def fracture_opening(model: Any) -> Any:
     (older layouts): FRACTURE_STRAIN x dx for a perfectly plastic slab, 3 w_c with
     softening.
     """
-    w_c = crack_band_opening(model)
+    w_c = crack_band_opening(fracture)
     finite = jnp.isfinite(w_c)
-    if not model.lattice:
-        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * model.dx)
+    if not fracture.lattice:
+        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * fracture.cell_width)
     return jnp.where(
         finite,
         jnp.maximum(FRACTURE_OPENING, float(np.log(100.0)) * jnp.where(finite, w_c, 0.0)),
@@ -335,12 +378,12 @@ def fracture_opening(model: Any) -> Any:
     )
 
 
-def fracture_strain(model: Any) -> Any:
+def fracture_strain(fracture: Fracture) -> Any:
     """Opening strain that marks a slab fracture without a lattice (`fracture_opening` / dx)."""
-    return fracture_opening(model) / model.dx
+    return fracture_opening(fracture) / fracture.cell_width
 
 
-def p0_and_band(model: Any, state: Any, band: Any = None) -> tuple[Any, Any]:
+def p0_and_band(slab: Slab, fracture: Fracture, state: Any, band: Any = None) -> tuple[Any, Any]:
     """(p0, the band's p0) [Pa]: the current consolidation pressure, explicit in the
     previous step's plastic strains (SinhExpl softening with volumetric plastic strain, xi,
     and crack-band softening with the band's opening, G_f: `band_opening` for the
@@ -349,20 +392,23 @@ def p0_and_band(model: Any, state: Any, band: Any = None) -> tuple[Any, Any]:
     opened, the strength a particle of a band takes on once it yields
     (`damjax.core.step.constitutive`); both from one band opening. Otherwise the same p0
     twice."""
-    bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    w_c = crack_band_opening(model)
+    bulk = slab.youngs_modulus / (2.0 * (1.0 - slab.poisson))
+    w_c = crack_band_opening(fracture)
     eps_pv = state.eps_p[0] + state.eps_p[1]
-    if not (model.crack_band and model.lattice):
-        p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
-        p0 = mcc.softened_p0(p0, eps_pv, model.mcc_xi, bulk)
+    if not (fracture.crack_band and fracture.lattice):
+        p0 = fracture.p0_init * mcc.crack_band_factor(state.opening, fracture.cell_width, w_c)
+        p0 = mcc.softened_p0(p0, eps_pv, fracture.mcc_xi, bulk)
         return p0, p0
     # only particles that opened themselves soften (by more than round-off, OPENED): the
     # window's sum must not weaken an intact neighbour, which would then yield too and
     # spread the band over a plateau
-    w = band_opening(model, state.opening, opening_y=state.opening_y) if band is None else band
-    opened = state.opening * model.lattice_spacing > OPENED * w_c
-    p0_band = mcc.softened_p0(model.p0_init * jnp.exp(-w / w_c), eps_pv, model.mcc_xi, bulk)
-    p0_intact = mcc.softened_p0(model.p0_init, eps_pv, model.mcc_xi, bulk)
+    if band is None:
+        w = band_opening(fracture, state.opening, opening_y=state.opening_y)
+    else:
+        w = band
+    opened = state.opening * fracture.lattice_spacing > OPENED * w_c
+    p0_band = mcc.softened_p0(fracture.p0_init * jnp.exp(-w / w_c), eps_pv, fracture.mcc_xi, bulk)
+    p0_intact = mcc.softened_p0(fracture.p0_init, eps_pv, fracture.mcc_xi, bulk)
     return jnp.where(opened, p0_band, p0_intact), p0_band
 
 
