@@ -13,7 +13,8 @@ phase:
    term), and the friction cap;
 3. ``grid_update`` (`grid_update`): v* = p / m, then Coulomb friction as an impulse cap:
    |v| shrinks by dt F_cap / m, never past zero (a slab at rest stays at rest);
-4. ``g2p`` (`grid_to_particles`): v, C and displacement;
+4. ``g2p`` (`grid_to_particles`): v, C and displacement (a particle whose stencil would
+   leave the grid stops there and leaves the run, where the run has outflow);
 5. ``slab_law`` (`slab_law`): strain increment, stress, plastic strain and openings;
 6. ``crack_and_saw`` (`crack_and_saw`): damage history, crack tip and saw;
 7. ``guards`` (`guards`): runtime fault flags.
@@ -282,14 +283,8 @@ def particles_to_grid(model: Model, state: State, wl: WeakLayerForces, mass: Any
         v_star, affine, fcap, u_p2g = transfer.materialise(
             (v_star, affine, fcap, state.u), finite_dt
         )
-        st = transfer.stencil(
-            model.grid.cell0,
-            model.grid.frac0,
-            u_p2g,
-            dx,
-            model.grid.grid_shape,
-            model.grid.periodic,
-        )
+        grid = model.grid
+        st = transfer.stencil(grid.cell0, grid.frac0, u_p2g, dx, grid.grid_shape, grid.periodic)
         n_nodes = model.n_nodes
         S = len(st.w)
         w_p2g = st.w
