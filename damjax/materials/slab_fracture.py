@@ -26,11 +26,13 @@ converge with dx (docs/model/slab.md has the measurements).
 
 The law (`step_start`, `return_map_uniaxial`, `return_map_plane`; band openings over windows
 fixed in metres, `band_opening`; the strength a band keeps, `p0_and_band`) is what
-`damjax.core.step` calls. The counts of a run's fractures are diagnostics
-(`damjax.diagnostics`): the "crack_band" slab's fractures are bands whose opening reached
-`fracture_opening` (`damjax.diagnostics.band_fractures`); the "paper" slab's are those the
-crack feels (`damjax.diagnostics.crack_fractures`: speed drops with a separation behind
-the tip, and the crown).
+`damjax.core.step` calls, with the model's parts it reads: the slab's elastic constants
+(`damjax.materials.slab.Slab`) and `Fracture`, this law's constants and lattice. The
+counts of a run's fractures are diagnostics (`damjax.diagnostics`): the "crack_band"
+slab's fractures are bands whose opening reached `fracture_opening`
+(`damjax.diagnostics.band_fractures`); the "paper" slab's are those the crack feels
+(`damjax.diagnostics.crack_fractures`: speed drops with a separation behind the tip, and
+the crown).
 
 Default values (chosen from the literature, not fitted to any result):
 
