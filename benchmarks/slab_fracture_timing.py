@@ -21,7 +21,6 @@ theta 150 took 23.0 s at commit 3b19f82.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 
@@ -84,7 +83,7 @@ def _models(p: PSTParams, dx: float, duration: float, seed: int) -> dict:
         s = PSTSetup(length=100.0, dx=dx, duration=duration, slab_fracture=mode, seed=seed)
         models[mode] = build(p, s, make_layout(p, s))
     m, st = models["paper"]
-    models[BASE] = (dataclasses.replace(m, lattice=(), lattice_spacing=0.0, opening_window=0), st)
+    models[BASE] = (m.with_fields(lattice=(), lattice_spacing=0.0, opening_window=0), st)
     return models
 
 

@@ -1,4 +1,4 @@
-"""Crack tip, crack speed, arrest and slab-tension diagnostics of a PST run.
+"""Crack tip, crack speed, arrest, slab-tension and slab-fracture diagnostics of a PST run.
 
 Definitions (all event-based, computed on the host from the tip history):
 
@@ -118,8 +118,9 @@ def tension_gradient(x: np.ndarray, sigma_xx: np.ndarray, cut: float) -> float:
 def slab_fractures(
     x: np.ndarray, opening: np.ndarray, t_fracture: np.ndarray, threshold: float, gap: float
 ) -> list[dict[str, float]]:
-    """Slab tensile fractures: connected bands where the tensile plastic strain exceeds
-    ``threshold``, bands closer than ``gap`` [m] merged; one entry per band with the
+    """Slab tensile fractures of a model without a particle lattice (`band_fractures` with
+    one): connected bands where the tensile plastic strain exceeds ``threshold``, bands
+    closer than ``gap`` [m] merged; one entry per band with the
     position of its largest opening and the time its first particle crossed the threshold.
     """
     order = np.argsort(x)
@@ -132,6 +133,225 @@ def slab_fractures(
     for band in np.split(idx, splits):
         k = band[np.argmax(opening[band])]
         out.append({"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band]))})
+    return sorted(out, key=lambda f: f["t_s"])
+
+
+# --------------------------------------------------------------------------------------
+# Slab fractures of a finished run (the fracture law and the strength field are
+# `damjax.materials.slab_fracture`): the "crack_band" slab's bands (`band_fractures`), the
+# crack speed around each (`fracture_speed_changes`), and the perfectly plastic ("paper")
+# slab's fractures counted by what they do to the crack (`crack_fractures`).
+# --------------------------------------------------------------------------------------
+
+FRACTURE_GAP = 1.0  # fractures closer than this are one [m]
+FRACTURE_SPEED_WINDOW = 0.05  # crack speed before / after a fracture: mean over this time [s]
+SEPARATION_WINDOW = 1.0  # the slab's stretch is its displacement difference over this [m]
+SEPARATION_OPENING = 0.1  # a stretch over SEPARATION_WINDOW this large is a separation [m]
+DROP_SAMPLE = 0.01  # crack speed: mean over consecutive intervals of this length [s]
+DROP_HORIZON = 0.02  # trend of the crack speed over this time, extrapolated as far [s]
+DROP_SPEED = 0.1  # a speed drop: the speed falls this far below its trend [c_s]
+
+
+def band_fractures(
+    x: np.ndarray,
+    opening: np.ndarray,
+    t_fracture: np.ndarray,
+    gap: float = FRACTURE_GAP,
+) -> list[dict[str, float]]:
+    """Slab fractures from the band openings at the end of a run.
+
+    ``opening``: band opening per particle [m] (`damjax.materials.slab_fracture.band_opening`);
+    ``t_fracture``: the time each particle's band opening reached the fracture opening
+    (inf: never). Particles that fractured, closer than ``gap`` [m] along x, are one
+    fracture, reported at the particle of its largest opening: ``{x_m, t_s, opening_m}``
+    (position [m], first time [s], opening [m]), sorted by time. The same count for every
+    slab model and grid spacing.
+    """
+    x, opening, t_fracture = (np.asarray(a, dtype=float) for a in (x, opening, t_fracture))
+    order = np.argsort(x, kind="stable")
+    x, opening, t_fracture = x[order], opening[order], t_fracture[order]
+    idx = np.nonzero(np.isfinite(t_fracture))[0]
+    if idx.size == 0:
+        return []
+    splits = np.nonzero(np.diff(x[idx]) > gap)[0] + 1
+    out = []
+    for band in np.split(idx, splits):
+        k = band[np.argmax(opening[band])]
+        out.append(
+            {
+                "x_m": float(x[k]),
+                "t_s": float(np.min(t_fracture[band])),
+                "opening_m": float(opening[k]),
+            }
+        )
+    return sorted(out, key=lambda f: f["t_s"])
+
+
+def fracture_speed_changes(
+    time: np.ndarray, tip: np.ndarray, fracture_list: list[dict[str, float]]
+) -> list[dict[str, float]]:
+    """Crack speed before and after each fracture [m/s] (the paper's Fig. 8d).
+
+    The mean speed of the crack tip over `FRACTURE_SPEED_WINDOW` seconds before the
+    fracture time and over the same time after it: ``{x_m, t_s, speed_before_m_per_s,
+    speed_after_m_per_s, speed_drop_m_per_s}``.
+    """
+    time, tip = np.asarray(time, dtype=float), np.asarray(tip, dtype=float)
+    out = []
+    for f in fracture_list:
+        t = f["t_s"]
+        if time.size < 2 or not math.isfinite(t):
+            continue
+        tip_at = lambda s: float(np.interp(s, time, tip))  # noqa: E731
+        t0, t1 = (
+            max(float(time[0]), t - FRACTURE_SPEED_WINDOW),
+            min(float(time[-1]), t + FRACTURE_SPEED_WINDOW),
+        )
+        before = (tip_at(t) - tip_at(t0)) / (t - t0) if t > t0 else math.nan
+        after = (tip_at(t1) - tip_at(t)) / (t1 - t) if t1 > t else math.nan
+        out.append(
+            {
+                "x_m": f["x_m"],
+                "t_s": t,
+                "speed_before_m_per_s": before,
+                "speed_after_m_per_s": after,
+                "speed_drop_m_per_s": before - after,
+            }
+        )
+    return out
+
+
+def separations(
+    x: np.ndarray,
+    slip: np.ndarray,
+    window: float = SEPARATION_WINDOW,
+    threshold: float = SEPARATION_OPENING,
+    gap: float = FRACTURE_GAP,
+) -> list[dict[str, float]]:
+    """Places where the slab came apart: ``{x_m, opening_m}`` sorted by x.
+
+    The slab's stretch at x is the difference of its slope-parallel displacement ``slip``
+    [m] across a window of ``window`` metres centred on x (particles at the same x, as
+    across a 2D strip, averaged first). A separation is a local maximum of the stretch of
+    at least ``threshold`` [m]; maxima closer than ``gap`` [m] are one. Perfectly plastic
+    stretching spreads a few millimetres per metre (sigma_t / E and plastic flow), so a
+    stretch of decimetres over a metre is an opening slab, whatever the grid.
+    """
+    x, slip = np.asarray(x, dtype=float).ravel(), np.asarray(slip, dtype=float).ravel()
+    xs, inv = np.unique(x, return_inverse=True)
+    if xs.size < 2:
+        return []
+    us = np.bincount(inv, weights=slip) / np.bincount(inv)
+    half = 0.5 * window
+    stretch = np.interp(xs + half, xs, us) - np.interp(xs - half, xs, us)
+    # the stretch is flat while the window slides over one jump: the separation lies at
+    # the steepest step of the displacement inside the window of the largest stretch
+    step = np.diff(us) / np.maximum(np.diff(xs), 1e-12)
+    mid = 0.5 * (xs[1:] + xs[:-1])
+    out: list[dict[str, float]] = []
+    for i in np.argsort(-stretch, kind="stable"):
+        if stretch[i] < threshold:
+            break
+        inside = np.nonzero(np.abs(mid - xs[i]) <= half)[0]
+        x_f = float(mid[inside[np.argmax(step[inside])]]) if inside.size else float(xs[i])
+        if all(abs(x_f - f["x_m"]) > gap for f in out):
+            out.append({"x_m": x_f, "opening_m": float(stretch[i])})
+    return sorted(out, key=lambda f: f["x_m"])
+
+
+def speed_drops(
+    time: np.ndarray,
+    tip: np.ndarray,
+    shear_wave_speed: float,
+    sample: float = DROP_SAMPLE,
+    horizon: float = DROP_HORIZON,
+    drop: float = DROP_SPEED,
+) -> list[dict[str, float]]:
+    """Sudden drops of the crack speed: ``{t_s, tip_m, speed_drop_m_per_s}``.
+
+    The crack speed is the tip's mean speed over consecutive ``sample`` seconds. At each
+    sample, the speed's trend over the previous ``horizon`` seconds (a straight line through
+    the speeds ``horizon`` apart, capped at the current speed) is extrapolated ``horizon``
+    seconds ahead; a drop is where the crack then runs at least ``drop`` shear-wave speeds
+    slower than its trend. A steady
+    deceleration (a strength gradient) follows its trend and is no drop; so is the crack
+    coming to rest (the trend then falls below zero). ``t_s``: start of the slower
+    interval [s]; ``tip_m``: the tip then [m]; drops closer than ``horizon`` in time are one
+    (the largest).
+    """
+    time, tip = np.asarray(time, dtype=float), np.asarray(tip, dtype=float)
+    if time.size < 2:
+        return []
+    grid = np.arange(float(time[0]), float(time[-1]) + 1e-12, sample)
+    pos = np.interp(grid, time, tip)
+    v = np.diff(pos) / sample  # speed over [grid[k], grid[k + 1]]
+    n = max(1, int(round(horizon / sample)))
+    limit = drop * float(shear_wave_speed)
+    events: list[tuple[float, int]] = []
+    for k in range(2 * n, v.size):
+        before, earlier = v[k - n], v[k - 2 * n]
+        # linear, n samples further; never above the current speed: a crack whose
+        # acceleration levels off keeps its speed, which is no drop
+        trend = min(before + (before - earlier), before)
+        lost = trend - v[k]
+        if trend > 0.0 and lost >= limit:
+            events.append((lost, k))
+    out: list[dict[str, float]] = []
+    for lost, k in sorted(events, key=lambda e: (e[0], -e[1]), reverse=True):
+        # the drop starts with the first interval after the trend's that lost half of it
+        j = next(i for i in range(k - n + 1, k + 1) if v[k - n] - v[i] >= 0.5 * lost)
+        t = float(grid[j])
+        if all(abs(t - e["t_s"]) > horizon for e in out):
+            out.append({"t_s": t, "tip_m": float(pos[j]), "speed_drop_m_per_s": float(lost)})
+    return sorted(out, key=lambda e: e["t_s"])
+
+
+def crack_fractures(
+    time: np.ndarray,
+    tip: np.ndarray,
+    x: np.ndarray,
+    slip: np.ndarray,
+    shear_wave_speed: float,
+    arrest_position: float | None,
+    arrest_time: float | None,
+    wave_speed: float | None = None,
+) -> list[dict[str, float]]:
+    """Slab fractures that the crack feels, ``{x_m, t_s, opening_m}`` sorted by time.
+
+    The count of a slab without a length scale of its own (the perfectly plastic
+    ``"paper"`` slab), whose localised openings have no width of their own and whose number
+    of openings depends on dx. What is counted does not: a fracture is
+
+    - a sudden drop of the crack speed (`speed_drops`: 0.1 c_s below its 20 ms trend
+      within 20 ms) with a slab separation (`separations`: a stretch of 0.1 m over 1 m of
+      the final slab) at most ``wave_speed`` x 2 x `DROP_HORIZON` metres behind the tip
+      (how far the slab's longitudinal wave, ``wave_speed`` [m/s], carries the news of a
+      fracture while the drop shows; default 2 c_s), located at the one nearest the tip.
+      A drop without a separation there (the onset of a strength gradient) is none;
+    - the crown: when the crack arrested, the separation within `FRACTURE_GAP` of the
+      arrest position (at the arrest time), unless a drop already stands there.
+
+    ``opening_m`` is the separation's stretch. A separation
+    that formed behind the crack without changing its speed (a perfectly plastic slab
+    carries sigma_y h wherever it yields, so the force at the tip does not change) is not
+    a fracture of the crack; `separations` lists them all.
+    """
+    seps = separations(x, slip)
+    c_l = 2.0 * float(shear_wave_speed) if wave_speed is None else float(wave_speed)
+    reach = 2.0 * DROP_HORIZON * c_l
+    out: list[dict[str, float]] = []
+    for d in speed_drops(time, tip, shear_wave_speed):
+        near = [s for s in seps if -reach <= s["x_m"] - d["tip_m"] <= FRACTURE_GAP]
+        if not near:
+            continue
+        f = min(near, key=lambda s: abs(s["x_m"] - d["tip_m"]))
+        if all(abs(f["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
+            out.append({"x_m": f["x_m"], "t_s": d["t_s"], "opening_m": f["opening_m"]})
+    if arrest_position is not None and math.isfinite(arrest_position):
+        crown = [s for s in seps if abs(s["x_m"] - arrest_position) <= FRACTURE_GAP]
+        if crown and all(abs(crown[0]["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
+            t = float(arrest_time) if arrest_time is not None else math.nan
+            out.append({"x_m": crown[0]["x_m"], "t_s": t, "opening_m": crown[0]["opening_m"]})
     return sorted(out, key=lambda f: f["t_s"])
 
 
@@ -168,8 +388,8 @@ def smooth_arrest_position(model: Any, state: Any, width: float | None = None) -
 
     area = failed_area(model, state, width)
     if model.dim == 2:  # divide by the strip width (particle centres span [s/2, L - s/2])
-        length = jnp.max(model.saw_coord) + jnp.min(model.saw_coord)
-        area = area / (model.saw_coord.size * model.area0 / length)
+        length = jnp.max(model.saw.saw_coord) + jnp.min(model.saw.saw_coord)
+        area = area / (model.saw.saw_coord.size * model.slab.area0 / length)
     return area
 
 
@@ -182,8 +402,8 @@ def weak_layer_damage(model: Any, state: Any, width: float | None = None) -> Any
 
     from damjax.core.step import front_width
 
-    finite = jnp.isfinite(model.u_res)
-    u_r = jnp.where(finite, model.u_res, 1.0)
+    finite = jnp.isfinite(model.weak_layer.u_res)
+    u_r = jnp.where(finite, model.weak_layer.u_res, 1.0)
     if width is None:
         ramp = c1_ramp((state.u_max - u_r) / (LENGTH_RAMP * front_width(model)))
     else:
@@ -198,10 +418,10 @@ def failed_area(model: Any, state: Any, width: float | None = None) -> Any:
     (particles with u_max >= u_r)."""
     import jax.numpy as jnp
 
-    spacing = model.area0 if model.dim == 1 else jnp.sqrt(model.area0)
-    cut = jnp.clip((state.saw_pos - model.saw_coord) / spacing + 0.5, 0.0, 1.0)
+    spacing = model.slab.area0 if model.dim == 1 else jnp.sqrt(model.slab.area0)
+    cut = jnp.clip((state.saw_pos - model.saw.saw_coord) / spacing + 0.5, 0.0, 1.0)
     damage = jnp.maximum(weak_layer_damage(model, state, width), cut)
-    return jnp.sum(damage) * model.area0  # 1D: area0 is the particle spacing [m]
+    return jnp.sum(damage) * model.slab.area0  # 1D: area0 is the particle spacing [m]
 
 
 def _none(v: float) -> float | None:

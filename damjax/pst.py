@@ -38,7 +38,7 @@ from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: pub
 )
 from damjax.core.state import FAULT_MESSAGES, Model, State, raise_on_fault
 from damjax.core.step import broken_mask, column_height, residual_shear
-from damjax.materials import mcc, slab_fracture, weak_layer
+from damjax.materials import mcc, weak_layer
 from damjax.materials.slab_fracture import band_opening, fracture_strain
 from damjax.params import PSTParams, PSTSetup
 from damjax.validation import (
@@ -60,16 +60,15 @@ from damjax.validation import (
     warn_notes,
 )
 
-FRACTURE_GAP = 1.0  # tensile bands closer than this are one fracture [m]
-
 
 def weak_layer_shear(model: Model, state: State) -> Any:
     """Weak-layer shear stress magnitude [Pa]: cohesive traction where intact or
     softening, the friction cap tau_r where broken (an upper bound when at rest)."""
     broken = broken_mask(model, state)
     tau_r = residual_shear(model, state)
+    wl = model.weak_layer
     k = weak_layer.cohesive_factor(
-        state.u_max, model.tau_peak, tau_r, model.stiffness, model.softening, broken
+        state.u_max, wl.tau_peak, tau_r, wl.stiffness, wl.softening, broken
     )
     slip = mcc._sqrt(jnp.sum(state.u * state.u, axis=0))  # finite gradient at zero slip
     return jnp.where(broken, tau_r, k * slip)
@@ -473,8 +472,8 @@ def finish(
     info: Any,
 ) -> PSTResult:
     """Assemble a `PSTResult` from a finished (or faulted) run."""
-    x_ref = np.asarray(model.saw_coord)
-    tau_p = np.asarray(model.tau_peak)
+    x_ref = np.asarray(model.saw.saw_coord)
+    tau_p = np.asarray(model.weak_layer.tau_peak)
     dt = float(model.dt)
     times = dt * np.arange(1, tips.size + 1)
     fault = None
@@ -488,7 +487,7 @@ def finish(
     sigma_xx = np.asarray(final.sigma[0])
     height, wl_shear, smooth = (np.asarray(v) for v in _host_diagnostics(model, final))
     opening = np.asarray(final.opening)
-    if model.plastic and not model.crack_band:
+    if model.fracture.plastic and not model.fracture.crack_band:
         fractures = _crack_fractures(params, setup, x_ref, final, times, tips)
     else:
         fractures = slab_fractures(model, final)
@@ -536,7 +535,7 @@ def finish(
         timed_steps=info.steps_done,
     )
     result.summary["arrest_position_smooth_m"] = smooth
-    result.summary["slab_fracture_speed_changes"] = slab_fracture.speed_changes(
+    result.summary["slab_fracture_speed_changes"] = diagnostics.fracture_speed_changes(
         times, tips, fractures
     )
     return result
@@ -556,23 +555,23 @@ def _host_diagnostics(model: Model, final: State) -> tuple[Any, Any, Any]:
 
 def slab_fractures(model: Model, state: State) -> list[dict[str, float]]:
     """Band fractures of a final state, ``{x_m, t_s, opening_m}`` sorted by time: bands
-    whose opening [m] reached `damjax.materials.slab_fracture.fracture_opening`, bands closer than
-    `damjax.materials.slab_fracture.FRACTURE_GAP` merged (`slab_fracture.fractures`).
+    whose opening [m] reached `damjax.materials.slab_fracture.fracture_opening`, bands closer
+    than `damjax.diagnostics.FRACTURE_GAP` merged (`damjax.diagnostics.band_fractures`).
     `simulate_pst` reports these for the "crack_band" slab, whose bands have a width of
     their own; the perfectly plastic "paper" slab's fractures are counted by what they do
-    to the crack (`damjax.materials.slab_fracture.crack_fractures`), which needs the tip
+    to the crack (`damjax.diagnostics.crack_fractures`), which needs the tip
     history. Models without a particle lattice use the opening strain
     (`damjax.diagnostics.slab_fractures`)."""
-    x_ref = np.asarray(model.saw_coord)
-    if model.lattice:
-        w = np.asarray(band_opening(model, state.opening, opening_y=state.opening_y))
-        return slab_fracture.fractures(x_ref, w, np.asarray(state.t_fracture))
+    x_ref = np.asarray(model.saw.saw_coord)
+    if model.fracture.lattice:
+        w = np.asarray(band_opening(model.fracture, state.opening, opening_y=state.opening_y))
+        return diagnostics.band_fractures(x_ref, w, np.asarray(state.t_fracture))
     return diagnostics.slab_fractures(
         x_ref,
         np.asarray(state.opening),
         np.asarray(state.t_fracture),
-        float(np.min(np.asarray(fracture_strain(model)))),
-        FRACTURE_GAP,
+        float(np.min(np.asarray(fracture_strain(model.fracture)))),
+        diagnostics.FRACTURE_GAP,
     )
 
 
@@ -585,11 +584,11 @@ def _crack_fractures(
     tips: np.ndarray,
 ) -> list[dict[str, float]]:
     """Fractures of the perfectly plastic slab by what they do to the crack
-    (`damjax.materials.slab_fracture.crack_fractures`: speed drops and the crown)."""
+    (`damjax.diagnostics.crack_fractures`: speed drops and the crown)."""
     arrested, l_ca, t_stop = diagnostics.arrest(times, tips, setup.length, setup.dx)
     if setup.controlled or not arrested:
         l_ca, t_stop = None, None
-    return slab_fracture.crack_fractures(
+    return diagnostics.crack_fractures(
         times,
         tips,
         x_ref,
@@ -681,14 +680,14 @@ def _simulate_traced(prep: Prepared) -> PSTResult:
     return PSTResult(
         params=params,
         setup=setup,
-        x=model.saw_coord,
-        time=model.dt * jnp.arange(1, layout.n_steps + 1, dtype=model.saw_coord.dtype),
+        x=model.saw.saw_coord,
+        time=model.dt * jnp.arange(1, layout.n_steps + 1, dtype=model.saw.saw_coord.dtype),
         tip=tips,
         sigma_xx=final.sigma[0],
         height=column_height(model, final),
         slip=final.u[0],
         u_max=final.u_max,
-        tau_peak=model.tau_peak,
+        tau_peak=model.weak_layer.tau_peak,
         opening=final.opening,
         wl_shear=weak_layer_shear(model, final),
         snapshots={},

@@ -51,7 +51,7 @@ def pst_model(accumulation: str):
     model, state = build(PLASTIC, setup, make_layout(PLASTIC, setup))
     # without the particle lattice (the openings are then strains x dx, as on slopes): the
     # lattice's window sums follow the particles' storage order by design
-    model = dataclasses.replace(model, lattice=(), lattice_spacing=0.0, opening_window=0)
+    model = model.with_fields(lattice=(), lattice_spacing=0.0, opening_window=0)
     return model, state
 
 
@@ -59,7 +59,7 @@ def slope_model(accumulation: str):
     setup = slope_setup(accumulation)
     layout = make_slope_layout(SLOPE, setup, 38.0)
     model, state, _, _ = build_slope(SLOPE, setup, layout, 38.0, 600.0)
-    assert not model.lattice
+    assert not model.fracture.lattice
     return model, state
 
 

@@ -109,7 +109,6 @@ def test_infinite_tensile_strength_is_exactly_elastic():
 
 
 def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
-    import dataclasses
 
     from damjax import PSTParams, PSTSetup, pst
 
@@ -120,7 +119,7 @@ def test_pst_with_infinite_tensile_strength_reproduces_the_elastic_slab():
     with jax.enable_x64(True):
         lay = pst.make_layout(p, s)
         m_el, st0 = pst.build(p, s, lay)
-        m_pl = dataclasses.replace(m_el, plastic=True)  # the return mapping with p0 = inf
+        m_pl = m_el.with_fields(plastic=True)  # the return mapping with p0 = inf
         run = jax.jit(lambda m, x: pst.integrate_pure(m, x, lay.n_chunks, lay.chunk_steps))
         f_el, tips_el = run(m_el, st0)
         f_pl, tips_pl = run(m_pl, st0)

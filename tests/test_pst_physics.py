@@ -204,9 +204,9 @@ def test_column_volume_h_times_area_is_conserved(small_setup, arresting_params):
     model, state = pst.build(arresting_params, small_setup, lay)
     final, _ = jax.jit(lambda m, s: pst.integrate_pure(m, s, 1, 400))(model, state)
     h = column_height(model, final)
-    area = model.area0 * area_ratio(final.eps)
+    area = model.slab.area0 * area_ratio(final.eps)
     vol = float(jnp.sum(h * area))
-    assert vol == pytest.approx(float(model.thickness * model.area0) * h.size, rel=1e-6)
+    assert vol == pytest.approx(float(model.slab.thickness * model.slab.area0) * h.size, rel=1e-6)
     assert float(jnp.max(jnp.abs(final.eps[0]))) > 1e-5  # the slab did deform
 
 

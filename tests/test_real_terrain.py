@@ -282,8 +282,10 @@ def test_coulomb_strength_follows_the_normal_stress():
     h[10:] = 0.8
     layout = make_slope_layout(SLAB, setup, 38.0)
     model, *_ = build_slope(SLAB, setup, layout, psi, 300.0, thickness=h, wl_friction=0.6)
-    want = 300.0 + 0.6 * 250.0 * 9.81 * np.asarray(model.thickness) * math.cos(math.radians(38))
-    np.testing.assert_allclose(np.asarray(model.tau_peak), want, rtol=1e-5)
+    want = 300.0 + 0.6 * 250.0 * 9.81 * np.asarray(model.slab.thickness) * math.cos(
+        math.radians(38)
+    )
+    np.testing.assert_allclose(np.asarray(model.weak_layer.tau_peak), want, rtol=1e-5)
 
 
 # --------------------------------------------------------------------------- thickness

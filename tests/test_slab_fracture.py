@@ -109,8 +109,8 @@ def test_fracture_marker_is_an_opening_the_same_on_every_grid():
                 )
                 params = PSTParams(tensile_strength=6000.0, slab_fracture_energy=g_f)
                 model = pst.build(params, setup, pst.make_layout(params, setup))[0]
-                w = np.asarray(fracture_opening(model))
-                w_c = np.asarray(crack_band_opening(model))
+                w = np.asarray(fracture_opening(model.fracture))
+                w_c = np.asarray(crack_band_opening(model.fracture))
                 expected = np.where(
                     np.isfinite(w_c), np.maximum(FRACTURE_OPENING, np.log(100.0) * w_c), 1e-3
                 )

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from damjax import diagnostics
 from damjax.materials import slab_fracture
 from damjax.materials.slab_fracture import band_opening
 
@@ -48,14 +49,13 @@ def test_strength_field_mean_and_cov():
 
 
 class _Lattice:
-    """The Model fields `band_opening` reads, for a 1D strip."""
+    """The fields of `slab_fracture.Fracture` that `band_opening` reads, for a 1D strip."""
 
     def __init__(self, dx: float, ppc: int, n: int) -> None:
-        self.dx = dx
+        self.cell_width = dx
         self.lattice = (n,)
         self.lattice_spacing = dx / ppc
         self.opening_window = slab_fracture.opening_window(dx / ppc)
-        self.dim = 1
 
 
 @pytest.mark.parametrize("dx", [0.04, 0.02, 0.01])
@@ -82,7 +82,7 @@ def test_fractures_are_counted_from_openings():
         near = np.abs(x - x0) < 0.1
         opening[near] = w0
         t[near] = t0
-    out = slab_fracture.fractures(x, opening, t)
+    out = diagnostics.band_fractures(x, opening, t)
     # the bands at 3.0 and 3.4 m are closer than FRACTURE_GAP: one fracture
     assert [round(f["x_m"], 1) for f in out] == [2.9, 6.9]
     assert out[0]["t_s"] == 0.5 and out[0]["opening_m"] == 4e-3
@@ -92,7 +92,9 @@ def test_fractures_are_counted_from_openings():
 def test_speed_change_of_a_fracture():
     time = np.linspace(0.0, 1.0, 1001)
     tip = np.where(time < 0.5, 100.0 * time, 50.0 + 10.0 * (time - 0.5))
-    (c,) = slab_fracture.speed_changes(time, tip, [{"x_m": 40.0, "t_s": 0.5, "opening_m": 0.0}])
+    (c,) = diagnostics.fracture_speed_changes(
+        time, tip, [{"x_m": 40.0, "t_s": 0.5, "opening_m": 0.0}]
+    )
     assert c["speed_before_m_per_s"] == pytest.approx(100.0, rel=1e-6)
     assert c["speed_after_m_per_s"] == pytest.approx(10.0, rel=1e-6)
     assert c["speed_drop_m_per_s"] == pytest.approx(90.0, rel=1e-6)
@@ -137,7 +139,7 @@ def _plastic_work(params, setup):
 
     layout = make_layout(params, setup)
     model, state = build(params, setup, layout)
-    volume = model.thickness * model.area0
+    volume = model.slab.thickness * model.slab.area0
 
     def body(carry, _):
         s, opening_work, closing_work = carry
@@ -186,14 +188,14 @@ def test_energy_per_fracture_is_the_fracture_energy_on_two_grids():
 
     for dx in (0.08, 0.04):
         model, final, opening_work, _ = _plastic_work(*_small_pst(dx))
-        x = np.asarray(model.saw_coord)
+        x = np.asarray(model.saw.saw_coord)
         fr = slab_fractures(model, final)
         first = fr[0]
         near = np.abs(x - first["x_m"]) < 0.5
-        g_f_h = float(model.fracture_energy) * float(model.thickness)
+        g_f_h = float(model.fracture.fracture_energy) * float(model.slab.thickness)
         assert float(opening_work[near].sum()) == pytest.approx(g_f_h, rel=0.1), dx
         # the band is a few cells wide, not the whole tension zone
-        opened = x[near & (np.asarray(final.opening) * model.lattice_spacing > 1e-4)]
+        opened = x[near & (np.asarray(final.opening) * model.fracture.lattice_spacing > 1e-4)]
         assert opened.max() - opened.min() <= 0.35, dx
 
 
@@ -213,13 +215,13 @@ def test_energy_per_fracture_across_a_2d_strip_is_the_fracture_energy():
         params, setup = _small_pst(dx)
         setup = dataclasses.replace(setup, dim=2, width=0.3)
         model, final, opening_work, _ = _plastic_work(params, setup)
-        x = np.asarray(model.saw_coord)
+        x = np.asarray(model.saw.saw_coord)
         fr = slab_fractures(model, final)
         assert len(fr) >= 1, dx
         found.append(fr[0])
         near = np.abs(x - fr[0]["x_m"]) < 0.5
-        width = model.lattice[1] * model.lattice_spacing
-        g_f_h_w = float(model.fracture_energy) * float(model.thickness) * width
+        width = model.fracture.lattice[1] * model.fracture.lattice_spacing
+        g_f_h_w = float(model.fracture.fracture_energy) * float(model.slab.thickness) * width
         assert float(opening_work[near].sum()) == pytest.approx(g_f_h_w, rel=0.1), dx
     # the fracture is the same on both grids
     assert abs(found[0]["x_m"] - found[1]["x_m"]) <= 0.5
@@ -244,7 +246,7 @@ def test_2d_band_opening_is_the_jump_at_any_orientation(angle_deg):
     dist = (xy[0] - 2.0) * n[0] + (xy[1] - 2.0) * n[1]
     strain = (w / (s * math.sqrt(2.0 * math.pi)) * np.exp(-0.5 * (dist / s) ** 2)).ravel()
     model = _Lattice(dx, ppc, m * m)
-    model.lattice, model.dim = (m, m), 2
+    model.lattice = (m, m)
     got = np.asarray(
         band_opening(model, jnp.asarray(strain), opening_y=jnp.asarray(strain * n[1] ** 2))
     ).reshape(m, m)
@@ -313,8 +315,8 @@ def test_paper_slab_moves_as_without_a_lattice_and_elastic_slabs_get_none():
     params = PSTParams(tensile_strength=3000.0, strength_gradient=150.0, steady_length=4.0)
     setup = PSTSetup(length=12.0, dx=0.08, duration=0.3, slab_fracture="paper")
     model, state = build(params, setup, make_layout(params, setup))
-    assert model.lattice and not model.crack_band
-    bare = dataclasses.replace(model, lattice=(), lattice_spacing=0.0, opening_window=0)
+    assert model.fracture.lattice and not model.fracture.crack_band
+    bare = model.with_fields(lattice=(), lattice_spacing=0.0, opening_window=0)
 
     def run(m):
         return jax.jit(lambda s: jax.lax.fori_loop(0, 1500, lambda i, s: step(m, s), s))(state)
@@ -334,7 +336,7 @@ def test_paper_slab_moves_as_without_a_lattice_and_elastic_slabs_get_none():
         elastic = PSTParams()
         s = dataclasses.replace(setup, slab_fracture=choice)
         m = build(elastic, s, make_layout(elastic, s))[0]
-        assert m.lattice == () and not m.crack_band and not m.plastic
+        assert m.fracture.lattice == () and not m.fracture.crack_band and not m.fracture.plastic
 
 
 def test_slope_strength_field_is_the_same_on_two_grids_and_calibration_keeps_it():
@@ -358,11 +360,14 @@ def test_slope_strength_field_is_the_same_on_two_grids_and_calibration_keeps_it(
         )
         problem = sc.slope_problem(params, setup, slope_deg=35.0, tau_peak=1500.0)
         m = problem.model
-        assert m.crack_band and m.lattice == (round(10.0 / dx) * 2, round(6.0 / dx) * 2)
-        out[dx] = (problem.xp, problem.yp, np.asarray(m.p0_init))
+        assert m.fracture.crack_band and m.fracture.lattice == (
+            round(10.0 / dx) * 2,
+            round(6.0 / dx) * 2,
+        )
+        out[dx] = (problem.xp, problem.yp, np.asarray(m.fracture.p0_init))
         scaled = sc.with_slab(problem, 2.0 * 4000.0, 1.0)
         np.testing.assert_allclose(
-            np.asarray(scaled.p0_init), 2.0 * np.asarray(m.p0_init), rtol=1e-6
+            np.asarray(scaled.fracture.p0_init), 2.0 * np.asarray(m.fracture.p0_init), rtol=1e-6
         )
     (xc, yc, pc), (xf, yf, pf) = out[0.2], out[0.1]
     assert np.std(pc) / np.mean(pc) > 0.1  # heterogeneous

@@ -106,22 +106,23 @@ def slope_problem(
 def with_slab(problem: SlopeProblem, tensile_strength: Any, softening: Any) -> Model:
     """The problem's model with sigma_t [Pa] and delta [-] (traceable) substituted."""
     m = problem.model
-    dt = m.p0_init.dtype
-    if m.crack_band:
+    dt = m.fracture.p0_init.dtype
+    if m.fracture.crack_band:
         # p0 is proportional to sigma_t (both p0 rules): scaling the built p0 keeps the
         # slab's strength field, with tensile_strength as its new mean
         mean = float(problem.params.tensile_strength)
-        p0 = m.p0_init * (jnp.asarray(tensile_strength, dt) / mean)
+        p0 = m.fracture.p0_init * (jnp.asarray(tensile_strength, dt) / mean)
     else:
         p0 = mcc.p0_from_tensile_strength(
             jnp.asarray(tensile_strength, dt),
-            m.mcc_m,
-            m.mcc_beta,
+            m.fracture.mcc_m,
+            m.fracture.mcc_beta,
             problem.setup.p0_rule,
             problem.setup.mcc_invariants,
         )
     delta = jnp.asarray(softening, dt)
-    _, u_res = weak_layer.critical_displacements(m.tau_peak, m.stiffness, delta)
+    layer = m.weak_layer
+    _, u_res = weak_layer.critical_displacements(layer.tau_peak, layer.stiffness, delta)
     # with_fields: the front width (from u_r) and w_c (from p0) are derived again
     return m.with_fields(p0_init=p0, softening=delta, u_res=u_res)
 
@@ -357,7 +358,7 @@ def calibrate_slope(
             f"calibrate_slope: observed has {int(np.sum(~np.isfinite(obs)))} non-finite "
             "cells: must be 0 (not released) to 1 (released) everywhere"
         )
-    dtype = problem.model.p0_init.dtype
+    dtype = problem.model.fracture.p0_init.dtype
     fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
     if gradient not in ("ad", "fd"):

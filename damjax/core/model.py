@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import equinox as eqx
@@ -28,8 +29,11 @@ from damjax import theory
 from damjax._tracing import is_traced
 from damjax.constants import G_ACC
 from damjax.core import transfer
-from damjax.core.state import Model, State, zero_components
+from damjax.core.state import Grid, Model, Saw, State, zero_components
 from damjax.materials import mcc, slab_fracture, weak_layer
+from damjax.materials.slab import Slab
+from damjax.materials.slab_fracture import Fracture
+from damjax.materials.weak_layer import WeakLayer
 from damjax.params import (
     FALL_DEG_SPEC,
     STABILITY_SPEC,
@@ -263,25 +267,114 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         )
     _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     g_t = jnp.zeros((layout.dim, n), dtype).at[0].set(-G_ACC * jnp.sin(psi))
-    n_steps = layout.n_steps
-    model = Model(
+
+    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -tau_g along x
+        tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
+        u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)
+        return u0, jnp.abs(u0[0])
+
+    return _model_and_state(
+        params,
+        setup,
         grid_shape=layout.grid_shape,
-        dx=float(dx),
         periodic=layout.periodic,
         lateral=setup.lateral,
         saw_stops=not setup.controlled,
+        cell0=cell0,
+        frac0=frac0,
+        saw_coord=x_ref_j,
+        dt=_guarded_dt(params, setup, f(setup.duration / layout.n_steps), elastic_guard),
+        area0=area0,
+        plastic=plastic,
+        tensile_strength=tensile,
+        fracture_energy=g_f,
+        slab_fields=slab_kw,
+        psi=psi,
+        phi=phi,
+        g_tangent=g_t,
+        stiffness=K,
+        tau_peak=tau_p,
+        u_res=u_res,
+        preload=preload,
+    )
+
+
+def _model_and_state(
+    params: PSTParams,
+    setup: PSTSetup | SlopeSetup,
+    *,
+    grid_shape: tuple[int, ...],
+    periodic: tuple[bool, ...],
+    lateral: str,
+    saw_stops: bool,
+    cell0: np.ndarray,
+    frac0: np.ndarray,
+    saw_coord: Any,
+    dt: Any,
+    thickness: Any = None,
+    area0: float,
+    plastic: bool,
+    tensile_strength: Any,
+    fracture_energy: Any,
+    slab_fields: dict[str, Any],
+    psi: Any,
+    phi: Any,
+    g_tangent: Any,
+    stiffness: Any,
+    tau_peak: Any,
+    u_res: Any,
+    preload: Callable[[], tuple[Any, Any]],
+    outflow: bool = False,
+) -> tuple[Model, State]:
+    """The `Model` and its initial `State` of a PST or a slope, from the fields at the
+    particles (n of them) that `build` and `build_slope` make in their own ways.
+
+    ``cell0``, ``frac0``: the particles' reference cells and offsets (dim, n);
+    ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
+    its runtime checks; ``thickness``: h0 [m], a scalar or (n,) per particle (None:
+    ``params.thickness``); ``area0``: the reference column-base area per particle
+    [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa], ``fracture_energy`` G_f
+    [J/m^2] and ``slab_fields``, the static fields of the slab fracture model
+    (`_slab_fracture`); ``psi``: the slope angle [rad] (scalar or (n,)); ``phi``: the
+    weak layer's friction angle [rad]; ``g_tangent``: gravity along the slope (dim, n)
+    [m/s^2]; ``stiffness``: K [Pa/m]; ``tau_peak``, ``u_res``: (n,) strength [Pa] and
+    residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium
+    with an unstressed slab, (dim, n), and its magnitude, (n,) [m]; ``outflow``: a
+    particle that slides over the grid's edge leaves the run (`State.outflow`) instead
+    of stopping it with a fault. Everything else comes from ``params`` and ``setup``.
+    The derived constants (front width, w_c, the smallest mass) are derived once here,
+    not every step (`Model.with_constants`).
+
+    ``preload`` is called after the model is made: reverse mode sums the cotangents of a
+    traced parameter (K, rho, psi) in the reverse order of its uses, so that order is
+    part of the bits of a gradient.
+    """
+    dtype = jnp.dtype(setup.dtype)
+    f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
+    n = saw_coord.shape[0]
+    dim = len(grid_shape)
+    # made in this order (grid, slab, fracture, gravity, weak layer, saw): the order of the
+    # operations is the order of a traced parameter's uses, part of a gradient's bits
+    # (`preload`)
+    grid = Grid(
+        grid_shape=grid_shape,
+        dx=float(setup.dx),
+        periodic=periodic,
         cell0=jnp.asarray(cell0, jnp.int32),
         frac0=jnp.asarray(frac0, dtype),
-        saw_coord=x_ref_j,
-        dt=_guarded_dt(params, setup, f(setup.duration / n_steps), elastic_guard),
+    )
+    slab = Slab(
         density=f(params.density),
-        thickness=f(params.thickness),
+        thickness=f(params.thickness) if thickness is None else thickness,
         area0=f(area0),
         youngs_modulus=f(params.youngs_modulus),
         poisson=f(params.poisson),
+        lateral=lateral,
+    )
+    fracture = Fracture(
         plastic=plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            tensile,
+            tensile_strength,
             f(params.mcc_m),
             f(params.mcc_beta),
             setup.p0_rule,
@@ -290,26 +383,41 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(g_f),
-        g_tangent=g_t,
-        g_normal=jnp.full((n,), 1.0, dtype) * (G_ACC * jnp.cos(psi)),
-        stiffness=K,
-        tau_peak=tau_p,
+        fracture_energy=f(fracture_energy),
+        cell_width=float(setup.dx),
+        mcc_invariants=setup.mcc_invariants,
+        **slab_fields,
+    )
+    g_normal = jnp.broadcast_to(G_ACC * jnp.cos(psi), (n,))
+    layer = WeakLayer(
+        stiffness=stiffness,
+        tau_peak=tau_peak,
         softening=f(params.softening),
         u_res=u_res,
         friction=jnp.tan(phi),
+    )
+    saw = Saw(
+        saw_coord=saw_coord,
         saw_speed=f(params.saw_speed),
         saw_lead=f(SAW_LEAD),
-        mcc_invariants=setup.mcc_invariants,
+        saw_stops=saw_stops,
+    )
+    model = Model(
+        grid=grid,
+        slab=slab,
+        fracture=fracture,
+        weak_layer=layer,
+        saw=saw,
+        dt=dt,
+        g_tangent=g_tangent,
+        g_normal=g_normal,
         accumulation=transfer.resolve_accumulation(setup.accumulation),
-        **slab_kw,
-    ).with_constants()  # front width, w_c: derived once, not every step
-    tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
-    u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)  # pre-loaded layer
+    ).with_constants()
+    u0, u_max = preload()
     state = State(
         u=u0,
-        v=jnp.zeros((layout.dim, n), dtype),
-        C=jnp.zeros((layout.dim, layout.dim, n), dtype),
+        v=jnp.zeros((dim, n), dtype),
+        C=jnp.zeros((dim, dim, n), dtype),
         eps=zero_components(n, dtype),
         sigma=zero_components(n, dtype),
         eps_p=zero_components(n, dtype),
@@ -317,13 +425,14 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         opening_y=jnp.zeros((n,), dtype),
         t_fracture=jnp.full((n,), jnp.inf, dtype),
         t_broken=jnp.full((n,), jnp.inf, dtype),
-        u_max=jnp.abs(u0[0]),
+        u_max=u_max,
         time=f(0.0),
         saw_pos=f(0.0),
         saw_active=jnp.asarray(True),
         tip=f(0.0),
         fault=jnp.asarray(0, jnp.int32),
         fault_time=f(jnp.nan),
+        outflow=jnp.zeros((n,), bool) if outflow else None,
     )
     return model, state
 
@@ -339,7 +448,7 @@ def _slab_fracture(
     lattice_for_paper: bool = True,
 ) -> tuple[Any, Any, dict[str, Any]]:
     """The slab's tensile strength [Pa] (per particle for "crack_band"), its fracture
-    energy G_f [J/m^2] and the static `Model` fields of the slab fracture model
+    energy G_f [J/m^2] and the static fields of the slab fracture model (`Fracture`)
     (`PSTSetup.slab_fracture`; `damjax.materials.slab_fracture`).
 
     Every plastic slab gets the particles' lattice (x-major, ``lattice`` particles per
@@ -585,7 +694,6 @@ def build_slope(
     nx, ny = layout.n_cells
     thickness = uniform_value(thickness)  # a uniform map is the scalar model
     cell0, frac0, xp, yp = slope_particles(setup, layout.pad, cover)
-    n = xp.size
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
@@ -626,66 +734,35 @@ def build_slope(
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
     phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
-    model = Model(
+
+    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -rho h g_t
+        u0 = (f(params.density) * h0 / K) * g_t
+        return u0, mcc._sqrt(jnp.sum(u0 * u0, axis=0))  # finite gradient on a flat cell
+
+    model, state = _model_and_state(
+        params,
+        setup,
         grid_shape=layout.grid_shape,
-        dx=float(dx),
         periodic=(False, False),
         lateral="free",
         saw_stops=True,
-        cell0=jnp.asarray(cell0, jnp.int32),
-        frac0=jnp.asarray(frac0, dtype),
+        cell0=cell0,
+        frac0=frac0,
         saw_coord=jnp.asarray(np.hypot(xp - x0, yp - y0), dtype),
         dt=dt,
-        density=f(params.density),
         thickness=h0,
-        area0=f((dx / ppc) ** 2),
-        youngs_modulus=f(params.youngs_modulus),
-        poisson=f(params.poisson),
+        area0=(dx / ppc) ** 2,
         plastic=plastic,
-        p0_init=mcc.p0_from_tensile_strength(
-            tensile,
-            f(params.mcc_m),
-            f(params.mcc_beta),
-            setup.p0_rule,
-            setup.mcc_invariants,
-        ),
-        mcc_m=f(params.mcc_m),
-        mcc_beta=f(params.mcc_beta),
-        mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(g_f),
+        tensile_strength=tensile,
+        fracture_energy=g_f,
+        slab_fields=slab_kw,
+        psi=psi,
+        phi=phi,
         g_tangent=g_t,
-        g_normal=G_ACC * jnp.cos(psi),
         stiffness=K,
         tau_peak=tau_p,
-        softening=f(params.softening),
         u_res=u_res,
-        friction=jnp.tan(phi),
-        saw_speed=f(params.saw_speed),
-        saw_lead=f(SAW_LEAD),
-        mcc_invariants=setup.mcc_invariants,
-        accumulation=transfer.resolve_accumulation(setup.accumulation),
-        **slab_kw,
-    ).with_constants()  # front width, w_c: derived once, not every step
-    # pre-loaded weak layer: K u = -rho h g_t (equilibrium with zero slab stress)
-    u0 = (f(params.density) * h0 / K) * g_t
-    state = State(
-        u=u0,
-        v=jnp.zeros((2, n), dtype),
-        C=jnp.zeros((2, 2, n), dtype),
-        eps=zero_components(n, dtype),
-        sigma=zero_components(n, dtype),
-        eps_p=zero_components(n, dtype),
-        opening=jnp.zeros((n,), dtype),
-        opening_y=jnp.zeros((n,), dtype),
-        t_fracture=jnp.full((n,), jnp.inf, dtype),
-        t_broken=jnp.full((n,), jnp.inf, dtype),
-        u_max=mcc._sqrt(jnp.sum(u0 * u0, axis=0)),  # finite gradient on a flat cell (u0 = 0)
-        time=f(0.0),
-        saw_pos=f(0.0),
-        saw_active=jnp.asarray(True),
-        tip=f(0.0),
-        fault=jnp.asarray(0, jnp.int32),
-        fault_time=f(jnp.nan),
-        outflow=jnp.zeros((n,), bool) if outflow else None,
+        preload=preload,
+        outflow=outflow,
     )
     return model, state, xp, yp

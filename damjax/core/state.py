@@ -16,6 +16,9 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from damjax.materials import mcc, weak_layer
+from damjax.materials.slab import Slab
+from damjax.materials.slab_fracture import Fracture
+from damjax.materials.weak_layer import WeakLayer
 
 # fault codes raised by the runtime guards (bit flags)
 FAULT_NAN = 1
@@ -51,104 +54,15 @@ def zero_components(n: int, dtype: Any) -> tuple[Any, Any, Any]:
     return tuple(jnp.zeros((n,), dtype) for _ in range(3))
 
 
-class Model(eqx.Module):
-    """Everything a time step needs that does not evolve (traced leaves + static layout).
+class Grid(eqx.Module):
+    """The background grid and the particles' reference places on it (static layout and
+    (dim, n) arrays), the model's part that the transfers read (`damjax.core.transfer`)."""
 
-    Units: SI. Per-particle arrays have shape (n,) or (dim, n).
-    """
-
-    # static layout
-    grid_shape: tuple[int, ...] = eqx.field(static=True)
-    dx: float = eqx.field(static=True)
+    grid_shape: tuple[int, ...] = eqx.field(static=True)  # nodes per axis
+    dx: float = eqx.field(static=True)  # grid spacing [m]
     periodic: tuple[bool, ...] = eqx.field(static=True)  # wrap-around axes
-    lateral: str = eqx.field(static=True)  # strip lateral condition (dim == 1 only)
-    saw_stops: bool = eqx.field(static=True)  # False: controlled cut for the whole run
-    # particle reference positions (cell units) and saw coordinate [m]
-    cell0: Any  # (dim, n) int32
-    frac0: Any  # (dim, n) in [0, 1)
-    saw_coord: Any  # (n,) distance along the saw path in the reference configuration [m]
-    # time step and slab
-    dt: Any  # [s] (traced: a new E never recompiles)
-    density: Any  # rho [kg/m^3]
-    # h0 [m]: a scalar (a uniform slab, every PST), or (n,) per particle (a slope's snow
-    # cover from the terrain or a depth map, `damjax.core.model.build_slope`)
-    thickness: Any
-    area0: Any  # reference column-base area per particle [m^2] (1D: per unit width)
-    youngs_modulus: Any
-    poisson: Any
-    # Modified Cam Clay slab (p0_init = inf: elastic slab)
-    plastic: bool = eqx.field(static=True)  # False: skip the return mapping entirely
-    p0_init: Any
-    mcc_m: Any
-    mcc_beta: Any
-    mcc_xi: Any
-    fracture_energy: Any  # slab G_f [J/m^2] of the crack-band softening (inf: none)
-    # gravity [m/s^2]: slope-parallel components (dim, n) and the normal component (n,)
-    g_tangent: Any
-    g_normal: Any
-    # weak layer
-    stiffness: Any  # K_wl [Pa/m]
-    tau_peak: Any  # (n,) [Pa]
-    softening: Any
-    u_res: Any  # (n,) residual displacement u_r [m] (inf where unbreakable)
-    friction: Any  # tan(phi) [-]
-    # saw
-    saw_speed: Any  # [m/s]
-    saw_lead: Any  # the saw stops once the crack leads it by this much [m]
-    # stress invariants of the MCC yield function ("3d" or "plane", see materials.mcc)
-    mcc_invariants: str = eqx.field(static=True, default="3d")
-    # the particles as a regular lattice in their reference positions, x-major (particles
-    # per axis), its spacing [m], and the half-width in particles of the window over which
-    # the plastic opening strain is summed into a band opening [m]
-    # (`damjax.materials.slab_fracture.band_opening`); () : no lattice, opening = strain x dx
-    lattice: tuple[int, ...] = eqx.field(static=True, default=())
-    lattice_spacing: float = eqx.field(static=True, default=0.0)
-    opening_window: int = eqx.field(static=True, default=0)
-    # slab fracture model (`damjax.materials.slab_fracture`): True for "crack_band" (p0
-    # softens with the band opening, needs the lattice), False for "paper" (with a finite
-    # G_f it softens with the opening strain x dx, one cell)
-    crack_band: bool = eqx.field(static=True, default=False)
-    # how P2G adds the particles' contributions (`damjax.core.transfer.p2g_channels`):
-    # "fixed" (deterministic fixed point) or "float" (plain float scatter-adds)
-    accumulation: str = eqx.field(static=True, default="fixed")
-    # constants derived from the fields above, once when the model is built
-    # (`with_constants`; `with_fields` replaces fields and derives them again): the weak
-    # layer's front width [m] (n,) (`damjax.core.step.front_width`) and the crack band's
-    # w_c [m] (`damjax.materials.slab_fracture.crack_band_opening`). None: derived where
-    # they are used, in every step
-    front_width: Any = None
-    band_w_c: Any = None
-    # the smallest particle mass [kg] where the thickness is per particle (None with a
-    # scalar thickness: every particle weighs `mass`): the grid's empty-node threshold
-    mass_ref: Any = None
-
-    def with_constants(self) -> Model:
-        """This model with `front_width`, `band_w_c` and `mass_ref` derived from its
-        fields."""
-        spacing = self.area0 if len(self.grid_shape) == 1 else jnp.sqrt(self.area0)
-        lam = jnp.sqrt(
-            self.youngs_modulus
-            * self.thickness
-            / ((1.0 - self.poisson * self.poisson) * self.stiffness)
-        )
-        w_c = mcc.crack_band_opening(
-            self.p0_init, self.fracture_energy, self.mcc_m, self.mcc_beta, self.mcc_invariants
-        )
-        mass_ref = None if jnp.ndim(self.thickness) == 0 else jnp.min(self.mass)
-        return dataclasses.replace(
-            self,
-            front_width=weak_layer.front_width(self.u_res, spacing, lam),
-            band_w_c=w_c,
-            mass_ref=mass_ref,
-        )
-
-    def with_fields(self, **changes: Any) -> Model:
-        """This model with fields replaced (``u_res=...``, ``p0_init=...``; traceable) and
-        the derived constants derived again: the way to change a built model."""
-        derived = {"front_width", "band_w_c", "mass_ref"} & set(changes)
-        if derived:
-            raise ValueError(f"with_fields: {sorted(derived)} are derived, not set")
-        return dataclasses.replace(self, **changes).with_constants()
+    cell0: Any  # (dim, n) int32 reference cell of each particle
+    frac0: Any  # (dim, n) its reference position in the cell, in [0, 1)
 
     @property
     def dim(self) -> int:
@@ -161,11 +75,101 @@ class Model(eqx.Module):
             n *= s
         return n
 
+
+class Saw(eqx.Module):
+    """The saw cut that starts the crack (SI units)."""
+
+    saw_coord: Any  # (n,) distance along the saw path in the reference configuration [m]
+    saw_speed: Any  # [m/s]
+    saw_lead: Any  # the saw stops once the crack leads it by this much [m]
+    saw_stops: bool = eqx.field(static=True)  # False: controlled cut for the whole run
+
+
+class Model(eqx.Module):
+    """Everything a time step needs that does not evolve (traced leaves + static layout),
+    in parts that the laws take (`PARTS`): ``grid`` (`Grid`), ``slab``
+    (`damjax.materials.slab.Slab`), ``fracture``
+    (`damjax.materials.slab_fracture.Fracture`: MCC plasticity and tensile fracture),
+    ``weak_layer`` (`damjax.materials.weak_layer.WeakLayer`) and ``saw`` (`Saw`); beside
+    them the time step, gravity and how P2G adds.
+
+    Units: SI. Per-particle arrays have shape (n,) or (dim, n). `with_fields` changes
+    fields by their own names (``u_res=...``, ``p0_init=...``), whichever part holds them.
+    """
+
+    grid: Grid
+    slab: Slab
+    fracture: Fracture
+    weak_layer: WeakLayer
+    saw: Saw
+    dt: Any  # [s] (traced: a new E never recompiles)
+    # gravity [m/s^2]: slope-parallel components (dim, n) and the normal component (n,)
+    g_tangent: Any
+    g_normal: Any
+    # how P2G adds the particles' contributions (`damjax.core.transfer.p2g_channels`):
+    # "fixed" (deterministic fixed point) or "float" (plain float scatter-adds)
+    accumulation: str = eqx.field(static=True, default="fixed")
+
+    def with_constants(self) -> Model:
+        """This model with its derived constants derived from its fields, once when the
+        model is built: the weak layer's front width [m] (n,) (`WeakLayer.front_width`,
+        `damjax.core.step.front_width`), the crack band's w_c [m] (`Fracture.band_w_c`,
+        `damjax.materials.slab_fracture.crack_band_opening`) and the smallest particle
+        mass where the thickness is per particle (`Slab.mass_ref`)."""
+        slab, wl, fr = self.slab, self.weak_layer, self.fracture
+        spacing = slab.area0 if self.dim == 1 else jnp.sqrt(slab.area0)
+        lam = jnp.sqrt(
+            slab.youngs_modulus
+            * slab.thickness
+            / ((1.0 - slab.poisson * slab.poisson) * wl.stiffness)
+        )
+        w_c = mcc.crack_band_opening(
+            fr.p0_init, fr.fracture_energy, fr.mcc_m, fr.mcc_beta, fr.mcc_invariants
+        )
+        mass_ref = None if jnp.ndim(slab.thickness) == 0 else jnp.min(slab.mass)
+        front = weak_layer.front_width(wl.u_res, spacing, lam)
+        return dataclasses.replace(
+            self,
+            slab=dataclasses.replace(slab, mass_ref=mass_ref),
+            fracture=dataclasses.replace(fr, band_w_c=w_c),
+            weak_layer=dataclasses.replace(wl, front_width=front),
+        )
+
+    def with_fields(self, **changes: Any) -> Model:
+        """This model with fields replaced by their own names, whichever part holds them
+        (``u_res=...``, ``p0_init=...``, ``dt=...``; traceable), and the derived constants
+        derived again: the way to change a built model."""
+        derived = set(DERIVED) & set(changes)
+        if derived:
+            raise ValueError(f"with_fields: {sorted(derived)} are derived, not set")
+        unknown = set(changes) - set(PART_OF) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise TypeError(f"with_fields: {sorted(unknown)} are not fields of the model")
+        top = {k: v for k, v in changes.items() if k not in PART_OF}
+        for part in PARTS:
+            kw = {k: v for k, v in changes.items() if PART_OF.get(k) == part}
+            if kw:
+                top[part] = dataclasses.replace(top.get(part, getattr(self, part)), **kw)
+        return dataclasses.replace(self, **top).with_constants()
+
+    @property
+    def dim(self) -> int:
+        return self.grid.dim
+
+    @property
+    def n_nodes(self) -> int:
+        return self.grid.n_nodes
+
     @property
     def mass(self) -> Any:
-        """Particle mass rho h0 A0 [kg] (constant: h A = h0 A0); (n,) where the thickness
-        is per particle."""
-        return self.density * self.thickness * self.area0
+        """Particle mass rho h0 A0 [kg] (`Slab.mass`)."""
+        return self.slab.mass
+
+
+# the model's parts and their classes, and the part that holds each field (`with_fields`)
+PARTS = {"grid": Grid, "slab": Slab, "fracture": Fracture, "weak_layer": WeakLayer, "saw": Saw}
+PART_OF = {f.name: part for part, cls in PARTS.items() for f in dataclasses.fields(cls)}
+DERIVED = ("front_width", "band_w_c", "mass_ref")  # set by `Model.with_constants`
 
 
 class State(eqx.Module):

@@ -13,7 +13,32 @@ from __future__ import annotations
 
 from typing import Any
 
+import equinox as eqx
 import jax.numpy as jnp
+
+
+class Slab(eqx.Module):
+    """The slab's part of a run's model (`damjax.core.state.Model.slab`): its columns and
+    elastic constants (SI units; arrays traced, the lateral condition static)."""
+
+    density: Any  # rho [kg/m^3]
+    # h0 [m]: a scalar (a uniform slab, every PST), or (n,) per particle (a slope's snow
+    # cover from the terrain or a depth map, `damjax.core.model.build_slope`)
+    thickness: Any
+    area0: Any  # reference column-base area per particle [m^2] (1D: per unit width)
+    youngs_modulus: Any  # E [Pa]
+    poisson: Any  # nu [-]
+    lateral: str = eqx.field(static=True)  # strip lateral condition (dim == 1 only)
+    # derived (`damjax.core.state.Model.with_constants`): the smallest particle mass [kg]
+    # where the thickness is per particle (None with a scalar thickness: every particle
+    # weighs `mass`), the grid's empty-node threshold
+    mass_ref: Any = None
+
+    @property
+    def mass(self) -> Any:
+        """Particle mass rho h0 A0 [kg] (constant: h A = h0 A0); (n,) where the thickness
+        is per particle."""
+        return self.density * self.thickness * self.area0
 
 
 def plane_stress(eps: Any, youngs_modulus: Any, poisson: Any) -> tuple[Any, Any, Any]:

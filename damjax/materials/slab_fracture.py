@@ -1,4 +1,4 @@
-"""Slab tensile fracture: the fracture law of the time step, defaults, strength field, counts.
+"""Slab tensile fracture: the fracture law of the time step, defaults, strength field.
 
 A perfectly plastic or softening slab without a length scale localises a fracture in one
 cell: the energy a fracture dissipates goes to zero with dx (Bazant and Oh 1983), and in a
@@ -26,9 +26,13 @@ converge with dx (docs/model/slab.md has the measurements).
 
 The law (`step_start`, `return_map_uniaxial`, `return_map_plane`; band openings over windows
 fixed in metres, `band_opening`; the strength a band keeps, `p0_and_band`) is what
-`damjax.core.step` calls. The counts: the "crack_band" slab's fractures are bands whose
-opening reached `fracture_opening` (`fractures`); the "paper" slab's are those the crack
-feels (`crack_fractures`: speed drops with a separation behind the tip, and the crown).
+`damjax.core.step` calls, with the model's parts it reads: the slab's elastic constants
+(`damjax.materials.slab.Slab`) and `Fracture`, this law's constants and lattice. The
+counts of a run's fractures are diagnostics (`damjax.diagnostics`): the "crack_band"
+slab's fractures are bands whose opening reached `fracture_opening`
+(`damjax.diagnostics.band_fractures`); the "paper" slab's are those the crack feels
+(`damjax.diagnostics.crack_fractures`: speed drops with a separation behind the tip, and
+the crown).
 
 Default values (chosen from the literature, not fitted to any result):
 
@@ -54,6 +58,7 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -61,6 +66,7 @@ import numpy as np
 from damjax import fields
 from damjax.constants import SLAB_FRACTURE_MODELS  # noqa: F401  (the choices, public here)
 from damjax.materials import mcc
+from damjax.materials.slab import Slab
 
 DEFAULT_FRACTURE_ENERGY = 0.12  # G_f [J/m^2]
 DEFAULT_STRENGTH_COV = 0.2  # coefficient of variation of sigma_t [-]
@@ -68,14 +74,6 @@ DEFAULT_STRENGTH_LENGTH = 1.0  # correlation length of sigma_t [m]
 MAX_STRENGTH_LENGTH = 10.0  # largest correlation length (sets the field's embedding) [m]
 FIELD_SPACING = (0.05, 0.1)  # node spacing of the strength field, 1D and 2D [m]
 OPENING_HALF_WIDTH = 0.15  # half-width of the window of the band opening [m]
-FRACTURE_GAP = 1.0  # fractures closer than this are one [m]
-SPEED_WINDOW = 0.05  # crack speed before / after a fracture: mean over this time [s]
-# The perfectly plastic ("paper") slab's fractures, counted by what they do (`crack_fractures`)
-SEPARATION_WINDOW = 1.0  # the slab's stretch is its displacement difference over this [m]
-SEPARATION_OPENING = 0.1  # a stretch over SEPARATION_WINDOW this large is a separation [m]
-DROP_SAMPLE = 0.01  # crack speed: mean over consecutive intervals of this length [s]
-DROP_HORIZON = 0.02  # trend of the crack speed over this time, extrapolated as far [s]
-DROP_SPEED = 0.1  # a speed drop: the speed falls this far below its trend [c_s]
 _SALT = 0x5AB  # folded into the seed: the slab field is independent of other draws
 
 
@@ -102,8 +100,9 @@ def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
 # `step_start` once per step and `return_map_uniaxial` or `return_map_plane` from its
 # constitutive update): band openings over windows fixed in metres, the strength a band
 # keeps (crack-band softening with G_f), and the MCC return maps that soften with it.
-# ``model`` and ``state`` are `damjax.core.state.Model` and `State` (read by attribute:
-# this module imports nothing from the core).
+# They take the model's parts they read (`Slab`, `Fracture`: ``model.slab``,
+# ``model.fracture`` of `damjax.core.state.Model`); ``state`` is the core's `State`, read
+# by attribute (this module imports nothing from the core).
 # --------------------------------------------------------------------------------------
 
 # A particle counts as opened (its strength follows its band's opening) once its own
@@ -112,6 +111,39 @@ def _lognormal(z: Any, mean: Any, cov: Any) -> Any:
 OPENED = 1e-3
 FRACTURE_STRAIN = 0.01  # tensile plastic strain that marks a slab fracture (no lattice) [-]
 FRACTURE_OPENING = 1e-3  # smallest band opening counted as a slab fracture [m]
+
+
+class Fracture(eqx.Module):
+    """The slab's plasticity and tensile fracture, its part of a run's model
+    (`damjax.core.state.Model.fracture`): the Modified Cam Clay constants
+    (`damjax.materials.mcc`; p0_init = inf: an elastic slab), the crack band's fracture
+    energy and the particles' lattice that band openings are summed over (SI units;
+    arrays traced, the rest static)."""
+
+    plastic: bool = eqx.field(static=True)  # False: skip the return mapping entirely
+    p0_init: Any  # initial consolidation pressure [Pa] (from the tensile strength)
+    mcc_m: Any  # critical-state slope M [-]
+    mcc_beta: Any  # tension parameter beta [-]
+    mcc_xi: Any  # volumetric softening xi [-]
+    fracture_energy: Any  # slab G_f [J/m^2] of the crack-band softening (inf: none)
+    # width of a band without a lattice [m]: one grid cell, dx (the opening strain x dx)
+    cell_width: float = eqx.field(static=True)
+    # stress invariants of the MCC yield function ("3d" or "plane", see materials.mcc)
+    mcc_invariants: str = eqx.field(static=True, default="3d")
+    # slab fracture model: True for "crack_band" (p0 softens with the band opening, needs
+    # the lattice), False for "paper" (with a finite G_f it softens with the opening
+    # strain x dx, one cell)
+    crack_band: bool = eqx.field(static=True, default=False)
+    # the particles as a regular lattice in their reference positions, x-major (particles
+    # per axis), its spacing [m], and the half-width in particles of the window over which
+    # the plastic opening strain is summed into a band opening [m] (`band_opening`);
+    # () : no lattice, opening = strain x dx
+    lattice: tuple[int, ...] = eqx.field(static=True, default=())
+    lattice_spacing: float = eqx.field(static=True, default=0.0)
+    opening_window: int = eqx.field(static=True, default=0)
+    # derived (`damjax.core.state.Model.with_constants`): the crack band's w_c [m]
+    # (`crack_band_opening`; None: derived where it is used, in every step)
+    band_w_c: Any = None
 
 
 class StepStart(NamedTuple):
@@ -124,7 +156,7 @@ class StepStart(NamedTuple):
     t_fracture: Any  # time each particle's band reached `fracture_opening` [s] (inf: not)
 
 
-def step_start(model: Any, state: Any) -> StepStart:
+def step_start(slab: Slab, fracture: Fracture, state: Any) -> StepStart:
     """Band openings, strengths and fracture times at the start of a step (plastic slabs).
 
     A band reaches the fracture opening when the largest window sum in it does: the window
@@ -133,43 +165,43 @@ def step_start(model: Any, state: Any) -> StepStart:
     step): the sums are the crack-band slab's own (`p0_and_band`), and a window of the new
     openings cost 0.05 of a 0.25 ms step.
     """
-    opening_y = state.opening_y if model.dim > 1 else None
-    if model.lattice:
-        plain, band = band_openings(model, state.opening, opening_y)
+    opening_y = state.opening_y if len(fracture.lattice) > 1 else None
+    if fracture.lattice:
+        plain, band = band_openings(fracture, state.opening, opening_y)
     else:
-        plain, band = band_opening(model, state.opening), None
+        plain, band = band_opening(fracture, state.opening), None
     t_fracture = jnp.where(
-        jnp.isinf(state.t_fracture) & (plain >= fracture_opening(model)),
+        jnp.isinf(state.t_fracture) & (plain >= fracture_opening(fracture)),
         state.time,
         state.t_fracture,
     )
-    p0, p0_band = p0_and_band(model, state, band)
-    return StepStart(plain if model.lattice else None, band, p0, p0_band, t_fracture)
+    p0, p0_band = p0_and_band(slab, fracture, state, band)
+    return StepStart(plain if fracture.lattice else None, band, p0, p0_band, t_fracture)
 
 
-def return_map_uniaxial(model: Any, state: Any, sig_tr: Any, start: StepStart) -> Any:
+def return_map_uniaxial(slab: Slab, fracture: Fracture, sig_tr: Any, start: StepStart) -> Any:
     """(sigma_xx [Pa], d eps_p_xx, d eps_p_yy) of a 1D free strip (uniaxial stress) from the
     trial stress ``sig_tr`` [Pa]: `damjax.materials.mcc.return_map_uniaxial`, or for the
     "crack_band" slab its energy-consistent softening map."""
-    if not (model.crack_band and model.lattice):
+    if not (fracture.crack_band and fracture.lattice):
         return mcc.return_map_uniaxial(
             sig_tr,
             start.p0,
-            model.mcc_m,
-            model.mcc_beta,
-            model.youngs_modulus,
-            model.mcc_invariants,
+            fracture.mcc_m,
+            fracture.mcc_beta,
+            slab.youngs_modulus,
+            fracture.mcc_invariants,
         )
     # the band's other particles open in the step too: each Newton step takes their
     # openings (the window sum, `band_opening`) at the current iterate, so the particles
     # of a band soften together and the band dissipates G_f h (20 m PST: 0.99-1.00 on dx
     # 0.08-0.02; with the other openings of the step's start, 1.10-1.28)
-    w_c = crack_band_opening(model)
-    rate = model.lattice_spacing / w_c
+    w_c = crack_band_opening(fracture)
+    rate = fracture.lattice_spacing / w_c
 
     def others(d: Any) -> Any:
         d = jnp.maximum(d, 0.0)
-        band = band_opening(model, d, spread=False)
+        band = band_opening(fracture, d, spread=False)
         return jnp.maximum(band / w_c - rate * d, 0.0)
 
     return mcc.return_map_uniaxial_softening(
@@ -178,34 +210,34 @@ def return_map_uniaxial(model: Any, state: Any, sig_tr: Any, start: StepStart) -
         start.p0_band,
         rate,
         others,
-        model.mcc_m,
-        model.mcc_beta,
-        model.youngs_modulus,
-        model.mcc_invariants,
-        settled=mcc.SETTLED * model.p0_init,
+        fracture.mcc_m,
+        fracture.mcc_beta,
+        slab.youngs_modulus,
+        fracture.mcc_invariants,
+        settled=mcc.SETTLED * fracture.p0_init,
     )
 
 
 def return_map_plane(
-    model: Any, state: Any, eps_e: Any, start: StepStart
+    slab: Slab, fracture: Fracture, state: Any, eps_e: Any, start: StepStart
 ) -> tuple[Any, Any, Any, Any]:
     """(sigma, d eps_p, d_opening, d_opening_y) of the plane-stress update from the trial
     elastic strain ``eps_e`` (xx, yy, xy rows): `damjax.materials.mcc.return_map_plane`, or
     for the "crack_band" slab its energy-consistent softening map; the opening increments
     from `principal_opening`."""
-    args = (model.mcc_m, model.mcc_beta, model.youngs_modulus, model.poisson)
-    args = (*args, model.mcc_invariants)
-    if model.crack_band and model.lattice:
+    args = (fracture.mcc_m, fracture.mcc_beta, slab.youngs_modulus, slab.poisson)
+    args = (*args, fracture.mcc_invariants)
+    if fracture.crack_band and fracture.lattice:
         # energy-consistent, as the 1D map: the band's strength averaged over the step's
         # opening (a fracture across a 0.3 m strip: 1.06-1.09 G_f h W on dx 0.08-0.02;
         # with the strength of the step's start, 1.83 / 1.53 on dx 0.08 / 0.04)
-        w_c = crack_band_opening(model)
+        w_c = crack_band_opening(fracture)
         o, oy = state.opening, state.opening_y
-        w0 = _jump(model, o, oy) if start.plain is None else start.plain
+        w0 = _jump(fracture, o, oy) if start.plain is None else start.plain
 
         def increase(d: Any) -> Any:
             d_open, d_open_y = principal_opening(d)
-            return jnp.maximum(_jump(model, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
+            return jnp.maximum(_jump(fracture, o + d_open, oy + d_open_y) - w0, 0.0) / w_c
 
         sigma, d_eps_p = mcc.return_map_plane_softening(
             eps_e,
@@ -213,7 +245,7 @@ def return_map_plane(
             start.p0_band,
             increase,
             *args,
-            settled=mcc.SETTLED * model.p0_init,
+            settled=mcc.SETTLED * fracture.p0_init,
         )
     else:
         sigma, d_eps_p = mcc.return_map_plane(eps_e, start.p0, *args)
@@ -231,26 +263,32 @@ def principal_opening(d_eps_p: Any) -> tuple[Any, Any]:
     return d_open, d_open * jnp.clip(0.5 - 0.5 * half / r, 0.0, 1.0)
 
 
-def _jump(model: Any, opening: Any, opening_y: Any) -> Any:
+def _jump(fracture: Fracture, opening: Any, opening_y: Any) -> Any:
     """`band_opening` without spread: the window sums only."""
-    return band_openings(model, opening, opening_y)[0]
+    return band_openings(fracture, opening, opening_y)[0]
 
 
-def crack_band_opening(model: Any) -> Any:
+def crack_band_opening(fracture: Fracture) -> Any:
     """w_c = G_f / sigma_y [m] of the slab's crack-band softening (inf: none); derived once
-    when the model is built (``model.band_w_c``)."""
-    if getattr(model, "band_w_c", None) is not None:
-        return model.band_w_c
+    when the model is built (`Fracture.band_w_c`)."""
+    if fracture.band_w_c is not None:
+        return fracture.band_w_c
     return mcc.crack_band_opening(
-        model.p0_init, model.fracture_energy, model.mcc_m, model.mcc_beta, model.mcc_invariants
+        fracture.p0_init,
+        fracture.fracture_energy,
+        fracture.mcc_m,
+        fracture.mcc_beta,
+        fracture.mcc_invariants,
     )
 
 
-def band_opening(model: Any, opening: Any, spread: bool = True, opening_y: Any = None) -> Any:
+def band_opening(
+    fracture: Fracture, opening: Any, spread: bool = True, opening_y: Any = None
+) -> Any:
     """Opening w [m] of the tensile band through each particle, rows (n,).
 
-    With a particle lattice (`Model.lattice`), the plastic opening strain times the
-    particle spacing, summed over the particles within `Model.opening_window` of it along
+    With a particle lattice (`Fracture.lattice`), the plastic opening strain times the
+    particle spacing, summed over the particles within `Fracture.opening_window` of it along
     x. A localised band, one cell or a few wide, then has the same opening, its
     displacement jump, on any grid, and a diffuse plastic zone counts as a band of the
     window's width (2 window + 1 particles), fixed in metres. Without a lattice: the
@@ -263,29 +301,30 @@ def band_opening(model: Any, opening: Any, spread: bool = True, opening_y: Any =
     their length. Without it (a strain with no direction, such as a compaction): the
     smaller of the x and y sums of ``opening``, the sum across a band, not along it.
     """
-    if not model.lattice:
-        return opening * model.dx
-    return band_openings(model, opening, opening_y)[1 if spread else 0]
+    if not fracture.lattice:
+        return opening * fracture.cell_width
+    return band_openings(fracture, opening, opening_y)[1 if spread else 0]
 
 
-def band_openings(model: Any, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
-    """`band_opening` without and with ``spread``, from one set of window sums."""
-    k = model.opening_window
-    s = model.lattice_spacing
+def band_openings(fracture: Fracture, opening: Any, opening_y: Any = None) -> tuple[Any, Any]:
+    """`band_opening` without and with ``spread``, from one set of window sums (with a
+    lattice)."""
+    k = fracture.opening_window
+    s = fracture.lattice_spacing
     # the sum over the window centred on each particle, then its largest value over the
     # window: every particle of a band sees the band's whole opening, also near its edges
     # (without spread: the window sum only, the opening of the band centred there)
-    if model.dim == 1:
+    if len(fracture.lattice) == 1:
         w = _window(opening * s, k, jnp.add, 0.0, 0)
         return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
     if opening_y is None:
-        grid = jnp.reshape(opening * s, model.lattice)
+        grid = jnp.reshape(opening * s, fracture.lattice)
         w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
         spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
         return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
     parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
     w = [
-        _window(jnp.reshape(o, model.lattice), k, jnp.add, 0.0, axis)
+        _window(jnp.reshape(o, fracture.lattice), k, jnp.add, 0.0, axis)
         for axis, o in enumerate(parts)
     ]
     spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
@@ -321,7 +360,7 @@ def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
         span *= 2
 
 
-def fracture_opening(model: Any) -> Any:
+def fracture_opening(fracture: Fracture) -> Any:
     """Band opening [m] that marks a slab fracture, per particle.
 
     With a particle lattice: FRACTURE_OPENING (1 mm), or, with crack-band softening
@@ -330,10 +369,10 @@ def fracture_opening(model: Any) -> Any:
     (older layouts): FRACTURE_STRAIN x dx for a perfectly plastic slab, 3 w_c with
     softening.
     """
-    w_c = crack_band_opening(model)
+    w_c = crack_band_opening(fracture)
     finite = jnp.isfinite(w_c)
-    if not model.lattice:
-        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * model.dx)
+    if not fracture.lattice:
+        return jnp.where(finite, 3.0 * w_c, FRACTURE_STRAIN * fracture.cell_width)
     return jnp.where(
         finite,
         jnp.maximum(FRACTURE_OPENING, float(np.log(100.0)) * jnp.where(finite, w_c, 0.0)),
@@ -341,12 +380,12 @@ def fracture_opening(model: Any) -> Any:
     )
 
 
-def fracture_strain(model: Any) -> Any:
+def fracture_strain(fracture: Fracture) -> Any:
     """Opening strain that marks a slab fracture without a lattice (`fracture_opening` / dx)."""
-    return fracture_opening(model) / model.dx
+    return fracture_opening(fracture) / fracture.cell_width
 
 
-def p0_and_band(model: Any, state: Any, band: Any = None) -> tuple[Any, Any]:
+def p0_and_band(slab: Slab, fracture: Fracture, state: Any, band: Any = None) -> tuple[Any, Any]:
     """(p0, the band's p0) [Pa]: the current consolidation pressure, explicit in the
     previous step's plastic strains (SinhExpl softening with volumetric plastic strain, xi,
     and crack-band softening with the band's opening, G_f: `band_opening` for the
@@ -355,20 +394,23 @@ def p0_and_band(model: Any, state: Any, band: Any = None) -> tuple[Any, Any]:
     opened, the strength a particle of a band takes on once it yields
     (`damjax.core.step.constitutive`); both from one band opening. Otherwise the same p0
     twice."""
-    bulk = model.youngs_modulus / (2.0 * (1.0 - model.poisson))
-    w_c = crack_band_opening(model)
+    bulk = slab.youngs_modulus / (2.0 * (1.0 - slab.poisson))
+    w_c = crack_band_opening(fracture)
     eps_pv = state.eps_p[0] + state.eps_p[1]
-    if not (model.crack_band and model.lattice):
-        p0 = model.p0_init * mcc.crack_band_factor(state.opening, model.dx, w_c)
-        p0 = mcc.softened_p0(p0, eps_pv, model.mcc_xi, bulk)
+    if not (fracture.crack_band and fracture.lattice):
+        p0 = fracture.p0_init * mcc.crack_band_factor(state.opening, fracture.cell_width, w_c)
+        p0 = mcc.softened_p0(p0, eps_pv, fracture.mcc_xi, bulk)
         return p0, p0
     # only particles that opened themselves soften (by more than round-off, OPENED): the
     # window's sum must not weaken an intact neighbour, which would then yield too and
     # spread the band over a plateau
-    w = band_opening(model, state.opening, opening_y=state.opening_y) if band is None else band
-    opened = state.opening * model.lattice_spacing > OPENED * w_c
-    p0_band = mcc.softened_p0(model.p0_init * jnp.exp(-w / w_c), eps_pv, model.mcc_xi, bulk)
-    p0_intact = mcc.softened_p0(model.p0_init, eps_pv, model.mcc_xi, bulk)
+    if band is None:
+        w = band_opening(fracture, state.opening, opening_y=state.opening_y)
+    else:
+        w = band
+    opened = state.opening * fracture.lattice_spacing > OPENED * w_c
+    p0_band = mcc.softened_p0(fracture.p0_init * jnp.exp(-w / w_c), eps_pv, fracture.mcc_xi, bulk)
+    p0_intact = mcc.softened_p0(fracture.p0_init, eps_pv, fracture.mcc_xi, bulk)
     return jnp.where(opened, p0_band, p0_intact), p0_band
 
 
@@ -426,203 +468,3 @@ def strength_field(
             + tx * ty * z[i0 + 1, j0 + 1]
         )
     return _lognormal(zp, jnp.asarray(mean, dtype), jnp.asarray(cov, dtype))
-
-
-def fractures(
-    x: np.ndarray,
-    opening: np.ndarray,
-    t_fracture: np.ndarray,
-    gap: float = FRACTURE_GAP,
-) -> list[dict[str, float]]:
-    """Slab fractures from the band openings at the end of a run.
-
-    ``opening``: band opening per particle [m] (`band_opening`);
-    ``t_fracture``: the time each particle's band opening reached the fracture opening
-    (inf: never). Particles that fractured, closer than ``gap`` [m] along x, are one
-    fracture, reported at the particle of its largest opening: ``{x_m, t_s, opening_m}``
-    (position [m], first time [s], opening [m]), sorted by time. The same count for every
-    slab model and grid spacing.
-    """
-    x, opening, t_fracture = (np.asarray(a, dtype=float) for a in (x, opening, t_fracture))
-    order = np.argsort(x, kind="stable")
-    x, opening, t_fracture = x[order], opening[order], t_fracture[order]
-    idx = np.nonzero(np.isfinite(t_fracture))[0]
-    if idx.size == 0:
-        return []
-    splits = np.nonzero(np.diff(x[idx]) > gap)[0] + 1
-    out = []
-    for band in np.split(idx, splits):
-        k = band[np.argmax(opening[band])]
-        out.append(
-            {
-                "x_m": float(x[k]),
-                "t_s": float(np.min(t_fracture[band])),
-                "opening_m": float(opening[k]),
-            }
-        )
-    return sorted(out, key=lambda f: f["t_s"])
-
-
-def speed_changes(
-    time: np.ndarray, tip: np.ndarray, fracture_list: list[dict[str, float]]
-) -> list[dict[str, float]]:
-    """Crack speed before and after each fracture [m/s] (the paper's Fig. 8d).
-
-    The mean speed of the crack tip over `SPEED_WINDOW` seconds before the fracture time
-    and over the same time after it: ``{x_m, t_s, speed_before_m_per_s,
-    speed_after_m_per_s, speed_drop_m_per_s}``.
-    """
-    time, tip = np.asarray(time, dtype=float), np.asarray(tip, dtype=float)
-    out = []
-    for f in fracture_list:
-        t = f["t_s"]
-        if time.size < 2 or not math.isfinite(t):
-            continue
-        tip_at = lambda s: float(np.interp(s, time, tip))  # noqa: E731
-        t0, t1 = max(float(time[0]), t - SPEED_WINDOW), min(float(time[-1]), t + SPEED_WINDOW)
-        before = (tip_at(t) - tip_at(t0)) / (t - t0) if t > t0 else math.nan
-        after = (tip_at(t1) - tip_at(t)) / (t1 - t) if t1 > t else math.nan
-        out.append(
-            {
-                "x_m": f["x_m"],
-                "t_s": t,
-                "speed_before_m_per_s": before,
-                "speed_after_m_per_s": after,
-                "speed_drop_m_per_s": before - after,
-            }
-        )
-    return out
-
-
-def separations(
-    x: np.ndarray,
-    slip: np.ndarray,
-    window: float = SEPARATION_WINDOW,
-    threshold: float = SEPARATION_OPENING,
-    gap: float = FRACTURE_GAP,
-) -> list[dict[str, float]]:
-    """Places where the slab came apart: ``{x_m, opening_m}`` sorted by x.
-
-    The slab's stretch at x is the difference of its slope-parallel displacement ``slip``
-    [m] across a window of ``window`` metres centred on x (particles at the same x, as
-    across a 2D strip, averaged first). A separation is a local maximum of the stretch of
-    at least ``threshold`` [m]; maxima closer than ``gap`` [m] are one. Perfectly plastic
-    stretching spreads a few millimetres per metre (sigma_t / E and plastic flow), so a
-    stretch of decimetres over a metre is an opening slab, whatever the grid.
-    """
-    x, slip = np.asarray(x, dtype=float).ravel(), np.asarray(slip, dtype=float).ravel()
-    xs, inv = np.unique(x, return_inverse=True)
-    if xs.size < 2:
-        return []
-    us = np.bincount(inv, weights=slip) / np.bincount(inv)
-    half = 0.5 * window
-    stretch = np.interp(xs + half, xs, us) - np.interp(xs - half, xs, us)
-    # the stretch is flat while the window slides over one jump: the separation lies at
-    # the steepest step of the displacement inside the window of the largest stretch
-    step = np.diff(us) / np.maximum(np.diff(xs), 1e-12)
-    mid = 0.5 * (xs[1:] + xs[:-1])
-    out: list[dict[str, float]] = []
-    for i in np.argsort(-stretch, kind="stable"):
-        if stretch[i] < threshold:
-            break
-        inside = np.nonzero(np.abs(mid - xs[i]) <= half)[0]
-        x_f = float(mid[inside[np.argmax(step[inside])]]) if inside.size else float(xs[i])
-        if all(abs(x_f - f["x_m"]) > gap for f in out):
-            out.append({"x_m": x_f, "opening_m": float(stretch[i])})
-    return sorted(out, key=lambda f: f["x_m"])
-
-
-def speed_drops(
-    time: np.ndarray,
-    tip: np.ndarray,
-    shear_wave_speed: float,
-    sample: float = DROP_SAMPLE,
-    horizon: float = DROP_HORIZON,
-    drop: float = DROP_SPEED,
-) -> list[dict[str, float]]:
-    """Sudden drops of the crack speed: ``{t_s, tip_m, speed_drop_m_per_s}``.
-
-    The crack speed is the tip's mean speed over consecutive ``sample`` seconds. At each
-    sample, the speed's trend over the previous ``horizon`` seconds (a straight line through
-    the speeds ``horizon`` apart, capped at the current speed) is extrapolated ``horizon``
-    seconds ahead; a drop is where the crack then runs at least ``drop`` shear-wave speeds
-    slower than its trend. A steady
-    deceleration (a strength gradient) follows its trend and is no drop; so is the crack
-    coming to rest (the trend then falls below zero). ``t_s``: start of the slower
-    interval [s]; ``tip_m``: the tip then [m]; drops closer than ``horizon`` in time are one
-    (the largest).
-    """
-    time, tip = np.asarray(time, dtype=float), np.asarray(tip, dtype=float)
-    if time.size < 2:
-        return []
-    grid = np.arange(float(time[0]), float(time[-1]) + 1e-12, sample)
-    pos = np.interp(grid, time, tip)
-    v = np.diff(pos) / sample  # speed over [grid[k], grid[k + 1]]
-    n = max(1, int(round(horizon / sample)))
-    limit = drop * float(shear_wave_speed)
-    events: list[tuple[float, int]] = []
-    for k in range(2 * n, v.size):
-        before, earlier = v[k - n], v[k - 2 * n]
-        # linear, n samples further; never above the current speed: a crack whose
-        # acceleration levels off keeps its speed, which is no drop
-        trend = min(before + (before - earlier), before)
-        lost = trend - v[k]
-        if trend > 0.0 and lost >= limit:
-            events.append((lost, k))
-    out: list[dict[str, float]] = []
-    for lost, k in sorted(events, key=lambda e: (e[0], -e[1]), reverse=True):
-        # the drop starts with the first interval after the trend's that lost half of it
-        j = next(i for i in range(k - n + 1, k + 1) if v[k - n] - v[i] >= 0.5 * lost)
-        t = float(grid[j])
-        if all(abs(t - e["t_s"]) > horizon for e in out):
-            out.append({"t_s": t, "tip_m": float(pos[j]), "speed_drop_m_per_s": float(lost)})
-    return sorted(out, key=lambda e: e["t_s"])
-
-
-def crack_fractures(
-    time: np.ndarray,
-    tip: np.ndarray,
-    x: np.ndarray,
-    slip: np.ndarray,
-    shear_wave_speed: float,
-    arrest_position: float | None,
-    arrest_time: float | None,
-    wave_speed: float | None = None,
-) -> list[dict[str, float]]:
-    """Slab fractures that the crack feels, ``{x_m, t_s, opening_m}`` sorted by time.
-
-    The count of a slab without a length scale of its own (the perfectly plastic
-    ``"paper"`` slab), whose localised openings have no width of their own and whose number
-    of openings depends on dx. What is counted does not: a fracture is
-
-    - a sudden drop of the crack speed (`speed_drops`: 0.1 c_s below its 20 ms trend
-      within 20 ms) with a slab separation (`separations`: a stretch of 0.1 m over 1 m of
-      the final slab) at most ``wave_speed`` x 2 x `DROP_HORIZON` metres behind the tip
-      (how far the slab's longitudinal wave, ``wave_speed`` [m/s], carries the news of a
-      fracture while the drop shows; default 2 c_s), located at the one nearest the tip.
-      A drop without a separation there (the onset of a strength gradient) is none;
-    - the crown: when the crack arrested, the separation within `FRACTURE_GAP` of the
-      arrest position (at the arrest time), unless a drop already stands there.
-
-    ``opening_m`` is the separation's stretch. A separation
-    that formed behind the crack without changing its speed (a perfectly plastic slab
-    carries sigma_y h wherever it yields, so the force at the tip does not change) is not
-    a fracture of the crack; `separations` lists them all.
-    """
-    seps = separations(x, slip)
-    c_l = 2.0 * float(shear_wave_speed) if wave_speed is None else float(wave_speed)
-    reach = 2.0 * DROP_HORIZON * c_l
-    out: list[dict[str, float]] = []
-    for d in speed_drops(time, tip, shear_wave_speed):
-        near = [s for s in seps if -reach <= s["x_m"] - d["tip_m"] <= FRACTURE_GAP]
-        if not near:
-            continue
-        f = min(near, key=lambda s: abs(s["x_m"] - d["tip_m"]))
-        if all(abs(f["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
-            out.append({"x_m": f["x_m"], "t_s": d["t_s"], "opening_m": f["opening_m"]})
-    if arrest_position is not None and math.isfinite(arrest_position):
-        crown = [s for s in seps if abs(s["x_m"] - arrest_position) <= FRACTURE_GAP]
-        if crown and all(abs(crown[0]["x_m"] - o["x_m"]) > FRACTURE_GAP for o in out):
-            t = float(arrest_time) if arrest_time is not None else math.nan
-            out.append({"x_m": crown[0]["x_m"], "t_s": t, "opening_m": crown[0]["opening_m"]})
-    return sorted(out, key=lambda f: f["t_s"])

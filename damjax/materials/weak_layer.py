@@ -36,7 +36,23 @@ from __future__ import annotations
 
 from typing import Any
 
+import equinox as eqx
 import jax.numpy as jnp
+
+
+class WeakLayer(eqx.Module):
+    """The weak layer's part of a run's model (`damjax.core.state.Model.weak_layer`):
+    the interface law's constants (SI units, traced)."""
+
+    stiffness: Any  # K_wl [Pa/m]
+    tau_peak: Any  # (n,) peak shear strength tau_p [Pa]
+    softening: Any  # delta [-]
+    u_res: Any  # (n,) residual displacement u_r [m] (inf where unbreakable)
+    friction: Any  # tan(phi) [-]
+    # derived (`damjax.core.state.Model.with_constants`): the slip range [m] (n,) across a
+    # particle's segment near a crack front (`front_width`; None: derived in every step,
+    # `damjax.core.step.front_width`)
+    front_width: Any = None
 
 
 def critical_displacements(tau_peak: Any, stiffness: Any, softening: Any) -> tuple[Any, Any]:

@@ -233,9 +233,9 @@ def _fractured_cells(model: Any, final: Any, cm: Any) -> np.ndarray:
     (`damjax.materials.slab_fracture.fracture_opening`, the same on every grid), else
     where the cell's mean opening strain reached
     `damjax.materials.slab_fracture.fracture_strain`."""
-    if model.lattice:
+    if model.fracture.lattice:
         return cm(np.isfinite(np.asarray(final.t_fracture)).astype(float)) > 0.0
-    return cm(final.opening) >= float(np.min(np.asarray(fracture_strain(model))))
+    return cm(final.opening) >= float(np.min(np.asarray(fracture_strain(model.fracture))))
 
 
 def _crown_and_stauchwall(
@@ -249,11 +249,11 @@ def _crown_and_stauchwall(
     reached `FRACTURE_OPENING` (1 mm). Without one: the column height changed by more
     than 2 % of the initial thickness h0 (a scalar or the cells' (nx, ny) map; thresholds
     on h, which depend on dx)."""
-    if not model.lattice:
+    if not model.fracture.lattice:
         return height < 0.98 * h0, height > 1.02 * h0
-    w = band_opening(model, final.opening, opening_y=final.opening_y)
-    crown = np.asarray(w >= fracture_opening(model), float)
-    closure = band_opening(model, jnp.maximum(-(final.eps_p[0] + final.eps_p[1]), 0.0))
+    w = band_opening(model.fracture, final.opening, opening_y=final.opening_y)
+    crown = np.asarray(w >= fracture_opening(model.fracture), float)
+    closure = band_opening(model.fracture, jnp.maximum(-(final.eps_p[0] + final.eps_p[1]), 0.0))
     stauch = np.asarray(closure >= FRACTURE_OPENING, float)
     return cm(crown) > 0.0, cm(stauch) > 0.0
 
@@ -389,7 +389,7 @@ def initial_failures(model: Model) -> Any:
     tau_p <= rho g h0 sin(psi) (the pre-load of `damjax.core.model.build_slope` reaches
     the peak), in the model's own values (h0 and psi at each particle)."""
     g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
-    return model.tau_peak <= model.density * model.thickness * g_t
+    return model.weak_layer.tau_peak <= model.slab.density * model.slab.thickness * g_t
 
 
 SOURCE_WINDOW_M = 2.0  # [m] the window of `arrival_sources`' local minima
@@ -501,14 +501,14 @@ def particle_damage(model: Model, state: State, width: float = RELEASE_DAMAGE_WI
     stand-in for "released" (the event itself is discrete). The ramp is wide (w = 0.5):
     after an arrest the particles just ahead of the front sit well below u_r, and a narrow
     ramp gives them no gradient (measured: exactly 0 at w = 0.1)."""
-    cut = jnp.clip((state.saw_pos - model.saw_coord) / (model.dx * 0.5) + 0.5, 0.0, 1.0)
+    cut = jnp.clip((state.saw_pos - model.saw.saw_coord) / (model.grid.dx * 0.5) + 0.5, 0.0, 1.0)
     return jnp.maximum(weak_layer_damage(model, state, width), cut)
 
 
 def release_area_smooth(model: Model, state: State) -> Any:
     """Smooth release area [m^2]: the particles' `particle_damage` times their area (a JAX
     scalar, differentiable; close to ``release_area_m2`` where the ramp is narrow in x)."""
-    return jnp.sum(particle_damage(model, state)) * model.area0
+    return jnp.sum(particle_damage(model, state)) * model.slab.area0
 
 
 def simulate_slope(
@@ -895,7 +895,7 @@ def run(
         start_chunk=start_chunk,
         history=history,
     )
-    cell0 = np.asarray(model.cell0)
+    cell0 = np.asarray(model.grid.cell0)
 
     def cm(v: Any, r: str = "mean") -> np.ndarray:
         return _cell_map(np.asarray(v, float), cell0, layout.pad, layout.n_cells, r)
@@ -936,10 +936,10 @@ def run(
         ).reshape(nx, ny)
         > 0
     )
-    if np.ndim(model.thickness) == 0:
-        h0 = np.where(snow_map, float(model.thickness), 0.0)
+    if np.ndim(model.slab.thickness) == 0:
+        h0 = np.where(snow_map, float(model.slab.thickness), 0.0)
     else:
-        h0 = cm(model.thickness)
+        h0 = cm(model.slab.thickness)
     crown, stauch = _crown_and_stauchwall(model, final, height, h0, cm)
     released_map = cm(t_b, "min") < np.inf
     edge_frac = domain_edge_fraction(released_map, domain)
@@ -994,7 +994,7 @@ def run(
         "crossslope_crack_speed_over_cs": _ratio_or_none(v_cross_peak, cs),
         "upslope_crack_speed_mean_over_cs": _ratio_or_none(v_up, cs),
         "crossslope_crack_speed_mean_over_cs": _ratio_or_none(v_cross, cs),
-        "release_area_m2": float(broken.sum() * float(model.area0)),
+        "release_area_m2": float(broken.sum() * float(model.slab.area0)),
         "crown_area_m2": float(np.sum(crown) * setup.dx**2),
         "stauchwall_area_m2": float(np.sum(stauch) * setup.dx**2),
         "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
@@ -1002,17 +1002,19 @@ def run(
         "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
         # the saw stops once the crack leads it: until then the release is the cut
         "saw_stopped": not bool(final.saw_active),
-        "sawn_area_m2": float(np.sum(np.asarray(model.saw_coord) < saw_r) * float(model.area0)),
+        "sawn_area_m2": float(
+            np.sum(np.asarray(model.saw.saw_coord) < saw_r) * float(model.slab.area0)
+        ),
         # the weak layer failing under the slab's own weight at t = 0 (before any cut)
-        "initial_failure_area_m2": float(fails0.sum() * float(model.area0)),
+        "initial_failure_area_m2": float(fails0.sum() * float(model.slab.area0)),
         # slab that slid out over the grid's edge (it left the run; counted as released)
         "outflow_particles": n_out,
-        "outflow_area_m2": float(n_out * float(model.area0)),
+        "outflow_area_m2": float(n_out * float(model.slab.area0)),
         # share of the released area's boundary on the domain's edge (None: no release)
         "domain_edge_fraction": edge_frac,
         # sources of the arrival-time map (1: the trigger alone)
         "arrival_sources": arrival_sources(cm(t_b, "min"), setup.dx),
-        "snow_area_m2": float(xp.size * float(model.area0)),
+        "snow_area_m2": float(xp.size * float(model.slab.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
         "n_particles": int(xp.size),
@@ -1061,7 +1063,7 @@ def run(
         arrival_time=cm(t_b, "min"),
         tension=cm(final.sigma[0]),
         opening=cm(final.opening),
-        tau_peak=cm(model.tau_peak),
+        tau_peak=cm(model.weak_layer.tau_peak),
         slope_deg=cm(
             np.degrees(np.arcsin(np.clip(np.hypot(*np.asarray(model.g_tangent)) / G_ACC, 0, 1)))
         ),
@@ -1144,7 +1146,7 @@ def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
     model, state0, xp, yp = build(prep)
     final, _ = _integrate_pure_jit(model, state0, layout.n_chunks, layout.chunk_steps)
     nx, ny = layout.n_cells
-    # each particle's cell from its reference position (host values: model.cell0 may be
+    # each particle's cell from its reference position (host values: model.grid.cell0 may be
     # traced inside jax.jit)
     flat = np.floor(xp / setup.dx).astype(int) * ny + np.floor(yp / setup.dx).astype(int)
     counts = np.maximum(np.bincount(flat, minlength=nx * ny), 1)
@@ -1159,12 +1161,12 @@ def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
     g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
     summary = {
         "release_area_smooth_m2": raise_on_fault(release_area_smooth(model, final), final.fault),
-        "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.area0,
+        "release_area_m2": jnp.sum(jnp.isfinite(final.t_broken)) * model.slab.area0,
         "saw_radius_m": final.saw_pos,
         "fault_code": final.fault,
         "outflow_particles": jnp.sum(final.outflow) if final.outflow is not None else 0,
     }
-    thickness = None if jnp.ndim(model.thickness) == 0 else cm(model.thickness)
+    thickness = None if jnp.ndim(model.slab.thickness) == 0 else cm(model.slab.thickness)
     return SlopeResult(
         x=(np.arange(nx) + 0.5) * setup.dx,
         y=(np.arange(ny) + 0.5) * setup.dx,
@@ -1172,7 +1174,7 @@ def _simulate_slope_traced(prep: PreparedSlope) -> SlopeResult:
         arrival_time=cm(final.t_broken, "min"),
         tension=cm(final.sigma[0]),
         opening=cm(final.opening),
-        tau_peak=cm(model.tau_peak),
+        tau_peak=cm(model.weak_layer.tau_peak),
         slope_deg=cm(jnp.degrees(jnp.arcsin(jnp.clip(g_t / G_ACC, 0.0, 1.0)))),
         snapshots={},
         summary=summary,
