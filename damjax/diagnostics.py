@@ -126,14 +126,20 @@ def slab_fractures(
     order = np.argsort(x)
     x, opening, t_fracture = x[order], opening[order], t_fracture[order]
     idx = np.nonzero(opening >= threshold)[0]
+    out = [
+        {"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band]))}
+        for k, band in _bands(x, opening, idx, gap)
+    ]
+    return sorted(out, key=lambda f: f["t_s"])
+
+
+def _bands(x: np.ndarray, opening: np.ndarray, idx: np.ndarray, gap: float) -> list[Any]:
+    """(k, band) for each run of the particles ``idx`` (sorted along x) closer than ``gap``
+    [m]: the band's indices and its particle k of the largest opening."""
     if idx.size == 0:
         return []
     splits = np.nonzero(np.diff(x[idx]) > gap)[0] + 1
-    out = []
-    for band in np.split(idx, splits):
-        k = band[np.argmax(opening[band])]
-        out.append({"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band]))})
-    return sorted(out, key=lambda f: f["t_s"])
+    return [(band[np.argmax(opening[band])], band) for band in np.split(idx, splits)]
 
 
 # --------------------------------------------------------------------------------------
@@ -171,19 +177,10 @@ def band_fractures(
     order = np.argsort(x, kind="stable")
     x, opening, t_fracture = x[order], opening[order], t_fracture[order]
     idx = np.nonzero(np.isfinite(t_fracture))[0]
-    if idx.size == 0:
-        return []
-    splits = np.nonzero(np.diff(x[idx]) > gap)[0] + 1
-    out = []
-    for band in np.split(idx, splits):
-        k = band[np.argmax(opening[band])]
-        out.append(
-            {
-                "x_m": float(x[k]),
-                "t_s": float(np.min(t_fracture[band])),
-                "opening_m": float(opening[k]),
-            }
-        )
+    out = [
+        {"x_m": float(x[k]), "t_s": float(np.min(t_fracture[band])), "opening_m": float(opening[k])}
+        for k, band in _bands(x, opening, idx, gap)
+    ]
     return sorted(out, key=lambda f: f["t_s"])
 
 
