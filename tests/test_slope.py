@@ -211,7 +211,7 @@ def test_shipped_slope_scenarios_validate_and_round_trip(name):
     assert again == scn and again.to_toml() == text
 
 
-def test_acceptance_scenario_is_the_issue_5_case():
+def test_shipped_fig12a_scenario_is_the_papers_case():
     scn = scenario.load("slope-generic-50x60", warn=False)
     p, s = scn.params, scn.setup
     assert (p.youngs_modulus, p.tensile_strength, p.softening) == (4.0e6, 4000.0, 1.0)
