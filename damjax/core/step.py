@@ -448,10 +448,7 @@ def guards(
         # J = exp(tr eps) reaches 0 only by underflow: test tr eps, not min(exp(.)), which
         # XLA:CPU evaluates in a slow reduction fusion (30 us of a 230 us baseline PST step)
         log_tiny = float(np.log(np.finfo(eps[0].dtype).tiny))
-        edge = jnp.zeros(st.base.shape[1:], bool)
-        for d in range(model.dim):
-            if not model.grid.periodic[d]:
-                edge = edge | (st.base[d] < 0) | (st.base[d] > model.grid.grid_shape[d] - 3)
+        edge = _beyond_edge(model.grid, st.base)
         fault = (
             jnp.where(~jnp.all(jnp.isfinite(speed2)), FAULT_NAN, 0)
             | jnp.where(jnp.any(edge), FAULT_EDGE, 0)
@@ -462,19 +459,25 @@ def guards(
         return Faults(fault, fault_time)
 
 
+def _beyond_edge(grid: Any, base: Any) -> Any:
+    """(n,) bool: particles whose stencil, from base cells ``base`` (dim rows, (n,) each),
+    reaches past the grid's non-periodic edges (`guards`, `_off_grid`)."""
+    edge = jnp.zeros(base[0].shape, bool)
+    for d in range(len(grid.grid_shape)):
+        if not grid.periodic[d]:
+            edge = edge | (base[d] < 0) | (base[d] > grid.grid_shape[d] - 3)
+    return edge
+
+
 def _off_grid(model: Model, u: Any) -> Any:
     """(n,) bool: particles whose stencil at displacement ``u`` would reach past the
     grid's non-periodic edges (the runtime guard's test, `guards`)."""
-    out = None
-    for d in range(model.dim):
-        if model.grid.periodic[d]:
-            continue
-        base = model.grid.cell0[d] + jnp.floor(
-            model.grid.frac0[d] + u[d] * (1.0 / model.grid.dx) - 0.5
-        ).astype(jnp.int32)
-        o = (base < 0) | (base > model.grid.grid_shape[d] - 3)
-        out = o if out is None else out | o
-    return jnp.zeros(u.shape[1:], bool) if out is None else out
+    g = model.grid
+    base = [
+        g.cell0[d] + jnp.floor(g.frac0[d] + u[d] * (1.0 / g.dx) - 0.5).astype(jnp.int32)
+        for d in range(model.dim)
+    ]
+    return _beyond_edge(g, base)
 
 
 def residual_shear(model: Model, state: State) -> Any:
