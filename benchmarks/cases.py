@@ -354,8 +354,10 @@ def slope_large() -> None:
 
 @case
 def real_path_member() -> None:
-    """One member of a shipped real path (avaAlr, or DAMJAX_REAL_PATH=avaKot) end to end, with
-    the Fig. 12a slope and that slope widened to the path's particle count, in one process.
+    """A real-path member end to end against the Fig. 12a slope (avaAlr: ~10-25 min on 2 cores).
+
+    One member of a shipped real path (avaAlr, or DAMJAX_REAL_PATH=avaKot), with the Fig.
+    12a slope and that slope widened to the path's particle count, in one process.
 
     Rows: ``slope_fig12a`` (75 000 particles, 2 s) and ``slope_fig12a_wide`` (the same
     profile and dx, as wide as gives the path's particle count, the first 0.2 s): cost per
