@@ -27,7 +27,7 @@ COMMANDS = {
 }
 # cases with toy sizes under --dry-run (they read DAMJAX_BENCH_DRY_RUN); the others would
 # run at full size, so --dry-run refuses them
-DRY_RUN_CASES = ("sweep256", "slope_large")
+DRY_RUN_CASES = ("sweep256", "slope_large", "real_path_member")
 
 
 def _first_line(doc: str | None) -> str:

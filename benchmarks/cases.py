@@ -299,7 +299,7 @@ def slope() -> None:
     from damjax.slope.generic import GenericSlopeCase
 
     ppc = int(os.environ.get("DAMJAX_BENCH_PPC", "1"))
-    # the issue's timing case: 2 s simulated (the arrest itself needs up to ~2.8 s, see
+    # the timing case: 2 s simulated (the arrest itself needs up to ~2.8 s, see
     # verification/slope_acceptance.py)
     emit(**slope_row("slope", GenericSlopeCase(particles_per_cell=ppc, duration=2.0)))
 
@@ -350,6 +350,73 @@ def slope_large() -> None:
 
     for row in t.slope_large_rows():
         emit(**row)
+
+
+@case
+def real_path_member() -> None:
+    """A real-path member end to end against the Fig. 12a slope (avaAlr: ~10-25 min on 2 cores).
+
+    One member of a shipped real path (avaAlr, or DAMJAX_REAL_PATH=avaKot), with the Fig.
+    12a slope and that slope widened to the path's particle count, in one process.
+
+    Rows: ``slope_fig12a`` (75 000 particles, 2 s) and ``slope_fig12a_wide`` (the same
+    profile and dx, as wide as gives the path's particle count, the first 0.2 s): cost per
+    particle-step [ns]; then the member: the wall time of `scenario.slope_fields.simulate`
+    (terrain, snow cover and fields, build, compile, every step, the maps and summary), its
+    particles and steps, and its cost per particle-step against both slopes'. Toy sizes
+    under --dry-run: the real-path toy polygon, 0.1 s."""
+    import dataclasses
+    import tempfile
+    import warnings
+
+    from damjax import scenario
+    from damjax.scenario import slope_fields
+    from damjax.slope.generic import GenericSlopeCase
+    from verification import real_path
+
+    dry = os.environ.get("DAMJAX_BENCH_DRY_RUN") == "1"
+    path = os.environ.get("DAMJAX_REAL_PATH", "avaAlr")
+    if dry:
+        scn = real_path.toy_scenario(path, Path(tempfile.mkdtemp(prefix="toy-path-")))
+    else:
+        scn = scenario.load(real_path.scenario_name(path))
+    slopes = {}
+    fig12a = GenericSlopeCase(particles_per_cell=1, duration=0.1 if dry else 2.0)
+    slopes["slope_fig12a"] = slope_row("slope_fig12a", fig12a)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the run's notes (the domain's edge) are in its row
+        res = slope_fields.simulate(scn)
+    wall = time.perf_counter() - t0
+    s = res.summary
+    n_p, n_s = int(s["n_particles"]), int(s["n_steps"])
+    # the Fig. 12a slope as wide as gives the path's particle count (same dx and profile):
+    # what the size alone costs
+    width = max(fig12a.width, round(n_p * fig12a.dx**2 / fig12a.length / 10.0) * 10.0)
+    wide = dataclasses.replace(fig12a, width=width, duration=0.02 if dry else 0.2)
+    slopes["slope_fig12a_wide"] = slope_row("slope_fig12a_wide", wide)
+    ns = {k: 1e9 / r["particle_steps_per_s"] for k, r in slopes.items()}
+    for k, r in slopes.items():
+        emit(**r, ns_per_particle_step=round(ns[k], 1), dry_run=dry)
+    ns_member = 1e9 / s["particle_steps_per_s"]
+    emit(
+        case="real_path_member",
+        path=path,
+        scenario=scn.name,
+        dx=scn.setup.dx,
+        duration_s=scn.setup.duration,
+        n_particles=n_p,
+        n_steps=n_s,
+        wall_time_s=round(wall, 1),
+        compile_time_s=round(s["compile_time_s"], 1),
+        run_time_s=round(s["wall_time_s"], 1),
+        ns_per_particle_step=round(ns_member, 1),
+        vs_fig12a=round(ns_member / ns["slope_fig12a"], 2),
+        vs_fig12a_wide=round(ns_member / ns["slope_fig12a_wide"], 2),
+        release_area_m2=s.get("release_area_m2"),
+        domain_edge_fraction=s.get("domain_edge_fraction"),
+        dry_run=dry,
+    )
 
 
 def _run(name: str) -> None:

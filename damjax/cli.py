@@ -30,6 +30,7 @@ import threading
 import warnings
 from typing import Any, NoReturn
 
+from damjax._commands import dispatch
 from damjax.params import PSTParams, PSTSetup, Spec, specs
 
 # the flags of `damjax pst`: the fields whose declarations say so (`damjax.params`); the
@@ -685,30 +686,11 @@ def main(argv: list[str] | None = None) -> int:
         _SIGTERM.clear()
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        rc = _dispatch(ns)
+        rc = dispatch(ns.func, ns)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
     return 143 if rc == 130 and _SIGTERM.is_set() else rc  # 128 + SIGTERM, as a shell reports
-
-
-def _dispatch(ns: argparse.Namespace) -> int:
-    try:
-        return ns.func(ns)
-    except ValueError as exc:  # validation: one line per problem
-        for line in str(exc).splitlines():
-            sys.stderr.write(f"damjax: error: {line}\n")
-        return 2
-    except KeyboardInterrupt:
-        sys.stderr.write("damjax: interrupted\n")
-        return 130
-    except BrokenPipeError:  # `damjax show DIR | head`: the reader left, not an error
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout
-        return 0
-    except OSError as exc:  # unreadable input, unwritable output folder, full disk
-        sys.stderr.write(f"damjax: error: {' '.join(str(exc).split())}\n")
-        return 1
 
 
 def exit_fast(rc: int) -> NoReturn:

@@ -531,6 +531,23 @@ def test_cli_errors_are_one_line(tiny, capsys):
     assert err.strip() == "damjax: error: --members = 0: must be an integer >= 1"
 
 
+
+def test_an_unwritable_output_folder_is_one_line_from_both_commands(tiny, tmp_path, capsys):
+    """``python -m damjax.ensemble`` ends as ``damjax ensemble`` does: an output folder
+    that cannot be made is one error line and exit code 1, not a traceback."""
+    from damjax import cli
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    out = str(blocker / "ens")
+    args = [str(tiny), "--members", "2", "--out", out, "--quiet"]
+    for main, argv in ((ensemble.main, args), (cli.main, ["ensemble", *args])):
+        rc = main(argv)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 1 and len(err) == 1, err
+        assert err[0].startswith("damjax: error: ") and "a-file" in err[0]
+
+
 def test_every_drawable_setting_has_cf_units():
     """The drawn values in ensemble.nc carry units: every scalar parameter and strength
     setting an [ensemble] table may draw."""

@@ -607,18 +607,20 @@ def slope_particles(
 def slope_particle_fields(
     params: PSTParams,
     setup: SlopeSetup,
-    xp: np.ndarray,
-    yp: np.ndarray,
     slope_deg: Any,
     tau_peak: Any,
     fall_deg: Any = 0.0,
     *,
+    pad: tuple[int, int] = (0, 0),
     thickness: Any = None,
+    cover: Any = None,
     stability: Any = None,
     wl_friction: Any = None,
 ) -> dict[str, Any]:
-    """The terrain, snow and weak-layer fields at the particles (reference positions xp,
-    yp [m]; maps at cell centres interpolated bilinearly): ``psi`` and ``fall`` [rad],
+    """The particles of a slope run (`slope_particles` on ``cover`` and ``pad``:
+    ``cell0``, ``frac0``, ``xp``, ``yp``) and the terrain, snow and weak-layer fields at
+    their reference positions xp, yp [m] (maps at cell centres interpolated bilinearly;
+    a map of one value is the scalar, `uniform_value`): ``psi`` and ``fall`` [rad],
     ``thickness`` h0 [m] (a scalar: ``params.thickness`` when ``thickness`` is None),
     ``tau_g`` = rho g h0 sin(psi), the gravitational shear the layer carries [Pa], and
     ``tau_peak`` [Pa]: the map ``tau_peak``; or S tau_g with ``stability`` S (a map of
@@ -629,6 +631,8 @@ def slope_particle_fields(
     dtype = jnp.dtype(setup.dtype)
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     dx = setup.dx
+    thickness = uniform_value(thickness)  # a uniform map is the scalar model
+    cell0, frac0, xp, yp = slope_particles(setup, pad, cover)
     psi = jnp.deg2rad(_bilinear(jnp.asarray(slope_deg, dtype), xp, yp, dx).astype(dtype))
     fall = jnp.deg2rad(_bilinear(jnp.asarray(fall_deg, dtype), xp, yp, dx).astype(dtype))
     if thickness is None:
@@ -646,7 +650,8 @@ def slope_particle_fields(
     if wl_friction is not None:
         mu = _bilinear(jnp.asarray(wl_friction, dtype), xp, yp, dx).astype(dtype)
         tau_p = tau_p + mu * rho_g_h * jnp.cos(psi)
-    return {"psi": psi, "fall": fall, "thickness": h, "tau_g": tau_g, "tau_peak": tau_p}
+    fields = {"psi": psi, "fall": fall, "thickness": h, "tau_g": tau_g, "tau_peak": tau_p}
+    return dict(cell0=cell0, frac0=frac0, xp=xp, yp=yp, **fields)
 
 
 def uniform_value(field: Any) -> Any:
@@ -693,7 +698,19 @@ def build_slope(
     dx, ppc = setup.dx, setup.particles_per_cell
     nx, ny = layout.n_cells
     thickness = uniform_value(thickness)  # a uniform map is the scalar model
-    cell0, frac0, xp, yp = slope_particles(setup, layout.pad, cover)
+    pf = slope_particle_fields(
+        params,
+        setup,
+        slope_deg,
+        tau_peak,
+        fall_deg,
+        pad=layout.pad,
+        thickness=thickness,
+        cover=cover,
+        stability=stability,
+        wl_friction=wl_friction,
+    )
+    cell0, frac0, xp, yp = pf["cell0"], pf["frac0"], pf["xp"], pf["yp"]
     # "crack_band": lattice (nx ppc, ny ppc particles, x-major), G_f and strength field
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
@@ -707,18 +724,6 @@ def build_slope(
         yp,
         (setup.length, setup.width),
         lattice_for_paper=False,
-    )
-    pf = slope_particle_fields(
-        params,
-        setup,
-        xp,
-        yp,
-        slope_deg,
-        tau_peak,
-        fall_deg,
-        thickness=thickness,
-        stability=stability,
-        wl_friction=wl_friction,
     )
     psi, fall, tau_p, h0 = pf["psi"], pf["fall"], pf["tau_peak"], pf["thickness"]
     # traced values outside their ranges stop the run

@@ -11,6 +11,7 @@ from typing import Any
 import jax
 
 from damjax import distributed, io
+from damjax._commands import dispatch
 from damjax.ensemble.batch import run
 from damjax.ensemble.products import ENSEMBLE_FILE, FIGURE, QUANTILE_KEYS, SUMMARY_FILE
 from damjax.ensemble.spec import load
@@ -149,12 +150,6 @@ def main(argv: list[str] | None = None) -> int:
         ns = p.parse_args(argv)
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else 2
-    try:
-        return command(ns)
-    except ValueError as exc:
-        for line in str(exc).splitlines():
-            sys.stderr.write(f"damjax: error: {line}\n")
-        return 2
-    except KeyboardInterrupt:
-        sys.stderr.write("damjax: interrupted (finished slices are kept; run again to resume)\n")
-        return 130
+    return dispatch(
+        command, ns, "damjax: interrupted (finished slices are kept; run again to resume)"
+    )

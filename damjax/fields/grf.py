@@ -16,7 +16,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import jax
 import jax.numpy as jnp
@@ -68,27 +68,29 @@ def correlation(
     """
     if model not in _MODELS:
         raise ValueError(f"model={model!r}: expected one of {_MODELS}")
-    if isinstance(lag, (list, tuple)):
-        comps = [jnp.asarray(h) for h in lag]
+    comps = [jnp.asarray(h) for h in lag] if isinstance(lag, (list, tuple)) else [jnp.asarray(lag)]
+    if len(comps) not in (1, 2):
+        raise ValueError(f"lag has {len(comps)} components; 1D and 2D fields only")
+    return _correlation(jnp, comps, length_scale, angle_deg, model)
+
+
+def _correlation(xp: Any, comps: list[Any], length_scale: Any, angle_deg: Any, model: str) -> Any:
+    """`correlation` of 1 or 2 lag components in the array module ``xp`` (numpy on the
+    host, jax.numpy when traced)."""
+    if len(comps) == 1:
+        r2 = (comps[0] / xp.ravel(xp.asarray(length_scale))[0]) ** 2
     else:
-        comps = [jnp.asarray(lag)]
-    ndim = len(comps)
-    if ndim == 1:
-        r2 = (comps[0] / jnp.ravel(jnp.asarray(length_scale))[0]) ** 2
-    elif ndim == 2:
-        ls = jnp.broadcast_to(jnp.asarray(length_scale), (2,))
-        a = jnp.deg2rad(angle_deg)
-        u = jnp.cos(a) * comps[0] + jnp.sin(a) * comps[1]
-        v = -jnp.sin(a) * comps[0] + jnp.cos(a) * comps[1]
+        ls = xp.broadcast_to(xp.asarray(length_scale), (2,))
+        a = xp.deg2rad(angle_deg)
+        u = xp.cos(a) * comps[0] + xp.sin(a) * comps[1]
+        v = -xp.sin(a) * comps[0] + xp.cos(a) * comps[1]
         r2 = (u / ls[0]) ** 2 + (v / ls[1]) ** 2
-    else:
-        raise ValueError(f"lag has {ndim} components; 1D and 2D fields only")
     if model == "gaussian":
-        return jnp.exp(-0.25 * jnp.pi * r2)
+        return xp.exp(-0.25 * np.pi * r2)
     # sqrt is not differentiable at 0: guard it (double-where) so gradients stay finite
     pos = r2 > 0
-    r = jnp.where(pos, jnp.sqrt(jnp.where(pos, r2, 1.0)), 0.0)
-    return jnp.exp(-r)
+    r = xp.where(pos, xp.sqrt(xp.where(pos, r2, 1.0)), 0.0)
+    return xp.exp(-r)
 
 
 _MAX_EMBED_NODES = 2**27  # 1 GiB of complex64 per FFT buffer
@@ -422,12 +424,7 @@ def _grf_host(
     length_scale: ArrayLike,
     angle_deg: ArrayLike,
     trend: ArrayLike,
-    *,
-    shape: tuple[int, ...],
-    spacing: tuple[float, ...],
-    model: str,
-    floor: float | None,
-    embed_shape: tuple[int, ...],
+    **kw: Any,
 ) -> np.ndarray:
     """`_grf` for concrete arguments, with numpy's FFT on the host (float64, returned in
     JAX's default float dtype, as `_grf`'s).
@@ -440,43 +437,10 @@ def _grf_host(
     JAX's (threefry, the same on every device and thread). The traced path (`_grf`: under
     `jax.grad`, `jax.vmap`, `jax.jit`) keeps XLA's FFT and agrees to rounding.
     """
-    dtype = np.dtype(jnp.result_type(float))
-    ndim = len(shape)
-    lags = []
-    for axis, (m, h) in enumerate(zip(embed_shape, spacing, strict=True)):
-        k = np.arange(m)
-        lag = np.where(k <= m // 2, k, k - m).astype(float) * h
-        lags.append(np.reshape(lag, [-1 if a == axis else 1 for a in range(ndim)]))
-    ls = np.asarray(length_scale, dtype=float)
-    if ndim == 1:
-        r2 = (lags[0] / np.ravel(ls)[0]) ** 2
-    else:
-        l1, l2 = np.broadcast_to(ls, (2,))
-        a = np.deg2rad(float(np.asarray(angle_deg)))
-        u = np.cos(a) * lags[0] + np.sin(a) * lags[1]
-        v = -np.sin(a) * lags[0] + np.cos(a) * lags[1]
-        r2 = (u / l1) ** 2 + (v / l2) ** 2
-    rho = np.exp(-0.25 * np.pi * r2) if model == "gaussian" else np.exp(-np.sqrt(r2))
-    eig = np.real(np.fft.fftn(rho))
-    n_embed = math.prod(embed_shape)
-    # the cut of `_grf`: eigenvalues below the rounding level of the precision in use
-    cut = 16.0 * np.finfo(dtype).eps * np.max(eig)
-    amplitude = np.where(eig > cut, np.sqrt(np.maximum(eig, 0.0) / n_embed), 0.0)
-    noise = np.asarray(jax.random.normal(key, (2, *embed_shape), jnp.float32), dtype=float)
-    z = np.real(np.fft.fftn(amplitude * (noise[0] + 1j * noise[1])))
-    z = z[tuple(slice(0, n) for n in shape)]
-    grad = np.ravel(np.asarray(trend, dtype=float))
-    if grad.size == 1 and ndim == 2:  # a scalar trend is along x (up-slope)
-        grad = np.concatenate([grad, np.zeros(1)])
-    field = float(np.asarray(mean)) + float(np.asarray(std)) * z
-    for axis, (n, h) in enumerate(zip(shape, spacing, strict=True)):
-        coord = np.arange(n, dtype=float) * h  # measured from the first node
-        field = field + grad[axis] * np.reshape(
-            coord, [-1 if a == axis else 1 for a in range(ndim)]
-        )
-    if floor is not None:
-        field = np.maximum(field, floor)
-    return field.astype(dtype)
+    f64 = functools.partial(np.asarray, dtype=float)
+    args = (f64(mean), f64(std), f64(length_scale), f64(angle_deg), f64(trend))
+    field = _circulant_draw(np, float, lambda v: v, key, *args, **kw)
+    return field.astype(jnp.result_type(float))
 
 
 @functools.partial(jax.jit, static_argnames=("shape", "spacing", "model", "floor", "embed_shape"))
@@ -487,47 +451,68 @@ def _grf(
     length_scale: ArrayLike,
     angle_deg: ArrayLike,
     trend: ArrayLike,
+    **kw: Any,
+) -> Array:
+    dtype = jnp.result_type(float)
+    return _circulant_draw(
+        jnp, dtype, jax.lax.stop_gradient, key, mean, std, length_scale, angle_deg, trend, **kw
+    )
+
+
+def _circulant_draw(
+    xp: Any,
+    dtype: Any,
+    stop_gradient: Any,
+    key: Array,
+    mean: Any,
+    std: Any,
+    length_scale: Any,
+    angle_deg: Any,
+    trend: Any,
     *,
     shape: tuple[int, ...],
     spacing: tuple[float, ...],
     model: str,
     floor: float | None,
     embed_shape: tuple[int, ...],
-) -> Array:
+) -> Any:
+    """The body of `grf` in the array module ``xp`` (numpy on the host in float64,
+    jax.numpy when traced), computing in ``dtype``."""
     ndim = len(shape)
-    dtype = jnp.result_type(float)
     # signed minimum-image lags of the periodic embedding [m]
     lags = []
     for axis, (m, h) in enumerate(zip(embed_shape, spacing, strict=True)):
-        k = jnp.arange(m)
-        lag = jnp.where(k <= m // 2, k, k - m).astype(dtype) * h
-        lags.append(jnp.reshape(lag, [-1 if a == axis else 1 for a in range(ndim)]))
-    rho = correlation(tuple(lags), length_scale, angle_deg=angle_deg, model=model)
-    eig = jnp.real(jnp.fft.fftn(rho))  # real: the embedded covariance is symmetric
+        k = xp.arange(m)
+        lag = xp.where(k <= m // 2, k, k - m).astype(dtype) * h
+        lags.append(xp.reshape(lag, [-1 if a == axis else 1 for a in range(ndim)]))
+    rho = _correlation(xp, lags, length_scale, angle_deg, model)
+    eig = xp.real(xp.fft.fftn(rho))  # real: the embedded covariance is symmetric
     n_embed = math.prod(embed_shape)
     # eigenvalues below the rounding level of the largest are noise (the sqrt would amplify
-    # it to ~sqrt(eps) of the field in float32): drop them, with the negative ones
-    cut = 16.0 * jnp.finfo(eig.dtype).eps * jax.lax.stop_gradient(jnp.max(eig))
+    # it to ~sqrt(eps) of the field in float32): drop them, with the negative ones; the
+    # rounding level is that of JAX's default float on the host too
+    eps = np.finfo(jnp.result_type(float)).eps
+    cut = 16.0 * eps * stop_gradient(xp.max(eig))
     pos = eig > cut
-    amplitude = jnp.where(pos, jnp.sqrt(jnp.where(pos, eig, 1.0) / n_embed), 0.0)
+    amplitude = xp.where(pos, xp.sqrt(xp.where(pos, eig, 1.0) / n_embed), 0.0)
     # white noise drawn in float32 whatever the precision: a float64 draw is a different
     # sample, so the same seed would give another field once jax_enable_x64 is on (a
     # float64 run, or any earlier call in the session that enabled it)
-    noise = jax.random.normal(key, (2, *embed_shape), jnp.float32).astype(dtype)
-    z = jnp.real(jnp.fft.fftn(amplitude * (noise[0] + 1j * noise[1])))
+    noise = xp.asarray(jax.random.normal(key, (2, *embed_shape), jnp.float32), dtype)
+    z = xp.real(xp.fft.fftn(amplitude * (noise[0] + 1j * noise[1])))
     z = z[tuple(slice(0, n) for n in shape)]
 
-    grad = jnp.ravel(jnp.asarray(trend, dtype))
+    grad = xp.ravel(xp.asarray(trend, dtype))
     if grad.size == 1 and ndim == 2:  # a scalar trend is along x (up-slope)
-        grad = jnp.concatenate([grad, jnp.zeros(1, dtype)])
-    field = jnp.asarray(mean, dtype) + jnp.asarray(std, dtype) * z
+        grad = xp.concatenate([grad, xp.zeros(1, dtype)])
+    field = xp.asarray(mean, dtype) + xp.asarray(std, dtype) * z
     for axis, (n, h) in enumerate(zip(shape, spacing, strict=True)):
-        coord = jnp.arange(n, dtype=dtype) * h  # measured from the first node
-        field = field + grad[axis] * jnp.reshape(
+        coord = xp.arange(n, dtype=dtype) * h  # measured from the first node
+        field = field + grad[axis] * xp.reshape(
             coord, [-1 if a == axis else 1 for a in range(ndim)]
         )
     if floor is not None:
-        field = jnp.maximum(field, floor)
+        field = xp.maximum(field, floor)
     return field
 
 

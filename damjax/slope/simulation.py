@@ -813,20 +813,7 @@ def load_ratio(
     shear its own slab loads it with, rho g h0 sin(psi), in the model's own values (at
     most 1: the layer fails under its slab before any cut). Particles in the order of
     `damjax.core.model.slope_particles`; ``snow``: `build_slope`'s snow keywords."""
-    cover = snow.get("cover")
-    _, _, xp, yp = slope_particles(setup, cover=cover)
-    pf = slope_particle_fields(
-        params,
-        setup,
-        xp,
-        yp,
-        slope_deg,
-        tau_peak,
-        fall_deg,
-        thickness=uniform_value(snow.get("thickness")),
-        stability=snow.get("stability"),
-        wl_friction=snow.get("wl_friction"),
-    )
+    pf = slope_particle_fields(params, setup, slope_deg, tau_peak, fall_deg, **snow)
     tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
     tau_g = np.broadcast_to(tau_g, tau_p.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
