@@ -531,7 +531,6 @@ def test_cli_errors_are_one_line(tiny, capsys):
     assert err.strip() == "damjax: error: --members = 0: must be an integer >= 1"
 
 
-
 def test_an_unwritable_output_folder_is_one_line_from_both_commands(tiny, tmp_path, capsys):
     """``python -m damjax.ensemble`` ends as ``damjax ensemble`` does: an output folder
     that cannot be made is one error line and exit code 1, not a traceback."""
@@ -561,3 +560,22 @@ def test_every_drawable_setting_has_cf_units():
     for names in STRENGTH_DRAWS.values():
         for name in names:
             assert products._STRENGTH_UNITS.get(name), name
+
+
+def test_string_states_of_later_slices_keep_their_length(tmp_path):
+    """The front states of an ensemble file: a slice read first with shorter strings
+    ("moving") must not cut the longer ones of the next ("reached_edge") when the
+    concatenation is written."""
+    import xarray as xr
+
+    from damjax import io
+    from damjax.ensemble.products import drop_string_widths
+
+    parts = []
+    for i, state in enumerate(("moving", "reached_edge")):
+        io.write_dataset(tmp_path / f"{i}.nc", xr.Dataset({"front": ("member", [state])}))
+        parts.append(io.open_dataset(tmp_path / f"{i}.nc"))
+    both = drop_string_widths(xr.concat(parts, dim="member"))
+    io.write_dataset(tmp_path / "both.nc", both)
+    back = io.open_dataset(tmp_path / "both.nc")["front"].values.astype(str).tolist()
+    assert back == ["moving", "reached_edge"]

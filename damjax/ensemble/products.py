@@ -221,6 +221,17 @@ def done_slices(folder: Path) -> dict[tuple[int, int], Path]:
     return out
 
 
+def drop_string_widths(ds: Any) -> Any:
+    """``ds`` without the string widths its variables were read with: a concatenation keeps
+    the first part's (a slice whose fronts were all "moving" read as 6 characters), and
+    writing it would cut the longer values of the other parts ("reached_edge" became
+    "reache" in ensemble.nc)."""
+    for v in ds.variables.values():
+        if v.dtype.kind in "US":
+            v.encoding.pop("dtype", None)
+    return ds
+
+
 def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = None) -> Any:
     """The ensemble dataset of members 0..members-1 from the slice files of ``out_dir``,
     with its products: ``release_probability`` (x, y) and the quantiles (``quantile``)
@@ -249,7 +260,7 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
         raise ValueError(f"{out_dir}: no finished members")
     summaries = sum((json.loads(p.attrs["summaries"])[: p.sizes["member"]] for p in parts), [])
     slope_angle = parts[0]["slope_angle"]
-    ds = xr.concat([p.drop_vars("slope_angle") for p in parts], dim="member")
+    ds = drop_string_widths(xr.concat([p.drop_vars("slope_angle") for p in parts], dim="member"))
     ds = ds.sortby("member")
     have = ds["member"].values
     if have.size != members or not np.array_equal(have, np.arange(members)):
