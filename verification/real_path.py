@@ -486,6 +486,9 @@ def main(argv: list[str] | None = None) -> None:
     paths = PATHS if args.path == "all" else (args.path,)
     if args.duration is not None and not args.duration > 0:
         raise SystemExit(f"--duration {args.duration}: must be > 0 s")
+    from benchmarks.cases import git_commit
+
+    commit = git_commit()  # the code that runs (taken before the runs: they take hours)
     for path in paths:
         out = Path(args.out) / path
         fig = None if args.no_figure else IMAGES / f"real_path_{path.lower()}.png"
@@ -498,6 +501,7 @@ def main(argv: list[str] | None = None) -> None:
             figure=fig,
         )
         row["date"] = time.strftime("%Y-%m-%d")
+        row["commit"] = commit
         print(json.dumps(row))
         with open(RESULTS, "a", encoding="utf-8") as f:
             f.write(json.dumps(row) + "\n")
