@@ -24,10 +24,10 @@ For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
     python -m verification.real_path --path avaKot --run-dir DIR  # reuse a run / ensemble
     python verification/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
 
-Cost on the 2-core development machine (shared, 2026-11-27): one avaAlr member (1.31e6
-particles, 4 s, 2800 steps) took 25 min (about 15 min on a quiet machine), an avaKot
-member (1.0e6 particles, 3 s) about three quarters of that; 16 members are hours per path
-there (docs/guide/real-path.md has what was run).
+Cost on a 2-core CPU (2026-11-27): one avaAlr member (1.31e6 particles, 4 s, 2800 steps)
+took 25 min with other jobs beside it (about 15 min on a quiet machine); avaKot's 16
+members (1.0e6 particles, 3 s, 2000 steps each) took 97 min, one at a time
+(docs/guide/real-path.md has what was run).
 """
 
 from __future__ import annotations
