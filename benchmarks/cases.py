@@ -354,7 +354,7 @@ def slope_large() -> None:
 
 @case
 def real_path_member() -> None:
-    """A real-path member end to end against the Fig. 12a slope (avaAlr: ~10-25 min on 2 cores).
+    """A real-path member end to end against the Fig. 12a slope (avaAlr: ~10 min on 2 cores).
 
     One member of a shipped real path (avaAlr, or DAMJAX_REAL_PATH=avaKot), with the Fig.
     12a slope and that slope widened to the path's particle count, in one process.

@@ -25,7 +25,8 @@ For each path (``damjax/data/paths``, from AvaFrame, EUPL-1.2):
     python verification/real_path.py --com1dfa AVADIR --frict samosATSmall  # AvaFrame's env
 
 Cost on a 2-core CPU (2026-11-27): one avaAlr member (1.31e6 particles, 4 s, 2800 steps)
-took 25 min with other jobs beside it (about 15 min on a quiet machine); avaKot's 16
+took 25 min with other jobs beside it and 8.2 min on a quiet one (`python -m benchmarks
+real_path_member`); avaKot's 16
 members (1.0e6 particles, 3 s, 2000 steps each) took 97 min, one at a time
 (docs/guide/real-path.md has what was run).
 """
