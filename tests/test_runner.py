@@ -51,6 +51,21 @@ def scn_file(tmp_path_factory) -> Path:
     return path
 
 
+# the signal tests' run: about 5 s of stepping on a 2-core CPU (the short one above steps
+# its 3 s in 0.7 s, within the random delay after a checkpoint: the signal could come after
+# the run had finished)
+LONG_TOML = RESTART_TOML.replace("duration = 3.0", "duration = 20.0").replace(
+    "chunk_steps = 100", "chunk_steps = 1000"
+)
+
+
+@pytest.fixture(scope="module")
+def long_scn_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("scn") / "restart-long.toml"
+    path.write_text(LONG_TOML)
+    return path
+
+
 @pytest.fixture(scope="module")
 def env(tmp_path_factory) -> dict:
     """Subprocess environment: a private persistent compilation cache; no preallocation of
@@ -236,13 +251,13 @@ def _signal_after_checkpoint(proc: subprocess.Popen, ck: Path, sig: int) -> tupl
     return proc.returncode, err
 
 
-def test_killed_runs_resume_identically(tmp_path, scn_file, env):
+def test_killed_runs_resume_identically(tmp_path, long_scn_file, env):
     """SIGINT a run, SIGKILL its resumption, resume again: identical to an uninterrupted
     run (computed at the same time in another process)."""
     ref, out = tmp_path / "ref", tmp_path / "run"
-    ref_proc = _start(env, "run", str(scn_file), "--out", str(ref))
+    ref_proc = _start(env, "run", str(long_scn_file), "--out", str(ref))
     ck = out / runner.CHECKPOINT
-    proc = _start(env, "run", str(scn_file), "--out", str(out), "--checkpoint-every", "0")
+    proc = _start(env, "run", str(long_scn_file), "--out", str(out), "--checkpoint-every", "0")
     rc, err = _signal_after_checkpoint(proc, ck, signal.SIGINT)
     assert rc == 130 and f"damjax resume {out}" in err and "Traceback" not in err, err
     chunk = int(io.read_npz(ck)["chunk"])
@@ -260,12 +275,12 @@ def test_killed_runs_resume_identically(tmp_path, scn_file, env):
     assert_same_run(ref, out)
 
 
-def test_sigterm_writes_the_checkpoint_and_exits_143(tmp_path, scn_file, env):
+def test_sigterm_writes_the_checkpoint_and_exits_143(tmp_path, long_scn_file, env):
     """`kill` (a batch scheduler's time limit) is an interrupt: the checkpoint of the last
     completed chunk is written and the resume command named; status 128 + 15."""
     out = tmp_path / "run"
     ck = out / runner.CHECKPOINT
-    proc = _start(env, "run", str(scn_file), "--out", str(out), "--checkpoint-every", "0")
+    proc = _start(env, "run", str(long_scn_file), "--out", str(out), "--checkpoint-every", "0")
     rc, err = _signal_after_checkpoint(proc, ck, signal.SIGTERM)
     assert rc == 143 and f"damjax resume {out}" in err and "Traceback" not in err, err
     assert int(io.read_npz(ck)["chunk"]) >= 1
