@@ -231,6 +231,9 @@ def _start(env: dict, *args: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
         env=env,
+        # a pytest-xdist worker ignores SIGINT and a child inherits that: give the run
+        # Python's own Ctrl-C back, as a shell would
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
