@@ -37,6 +37,7 @@ import argparse
 import json
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -276,13 +277,20 @@ def run_damjax(scn: Any, out: Path, members: int) -> tuple[Path, Any, dict]:
     from damjax.export import gis
 
     t0 = time.perf_counter()
+    # hours on a CPU: a bar over the steps, and a line on stderr for each member on disk
     if members == 1:
-        runner.run(scn, out)
+        runner.run(scn, out, progress=True)
         ds = gis.open_run(out)
         prob = np.isfinite(np.asarray(ds["arrival_time"].values)).astype(float)
         res = ds.assign(release_probability=(("x", "y"), prob))
     else:
-        res = ensemble.run(ensemble.from_scenario(scn, members=members), out, plot=False)
+        res = ensemble.run(
+            ensemble.from_scenario(scn, members=members),
+            out,
+            plot=False,
+            progress=True,
+            log=lambda line: print(f"{scn.name}: {line}", file=sys.stderr, flush=True),
+        )
     wall = time.perf_counter() - t0
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return out, res, {"damjax_wall_s": round(wall, 1), "damjax_peak_rss_mib": round(rss)}
