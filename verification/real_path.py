@@ -407,8 +407,16 @@ def run_path(
     if run_dir is not None:
         folder, ds = run_dir, load_run(run_dir)
         row["reused_run"] = str(run_dir)
-        summ = Path(run_dir, "summary.json")
-        if summ.is_file():
+        # a run's summary.json, or an ensemble's ensemble_summary.json
+        summ = next(
+            (
+                f
+                for f in (Path(run_dir, "summary.json"), Path(run_dir, "ensemble_summary.json"))
+                if f.is_file()
+            ),
+            None,
+        )
+        if summ is not None:
             sj = json.loads(summ.read_text())
             for key in ("wall_time_s", "compile_time_s", "n_steps", "particle_steps_per_s"):
                 if key in sj:
