@@ -90,10 +90,13 @@ def run_com1dfa(avadir: str, frict: str | None = None) -> dict:
 
 def com1dfa(avadir: Path, frict: str, python: str) -> dict:
     """`run_com1dfa` in AvaFrame's environment (a subprocess of ``python``)."""
+    # a Jupyter kernel sets MPLBACKEND to its inline backend, which AvaFrame's matplotlib
+    # (another environment, without matplotlib_inline) refuses at import: plain Agg there
     proc = subprocess.run(
         [python, str(Path(__file__).resolve()), "--com1dfa", str(avadir), "--frict", frict],
         capture_output=True,
         text=True,
+        env={**os.environ, "MPLBACKEND": "Agg"},
     )
     if proc.returncode != 0:
         raise RuntimeError(f"com1DFA failed on {avadir}:\n{proc.stderr[-3000:]}")
@@ -309,12 +312,10 @@ def load_run(run_dir: Path) -> Any:
 
 def plot(path: str, scn: Any, ds: Any, pfts: dict[str, Path], file: Path) -> None:
     """DEM hillshade, documented polygon, release probability, runout outlines."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import geopandas as gpd
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LightSource
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend stays as it is
+    from matplotlib.ticker import MaxNLocator
 
     from damjax import terrain
     from damjax.scenario.slope_fields import release_area_of
@@ -329,7 +330,8 @@ def plot(path: str, scn: Any, ds: Any, pfts: dict[str, Path], file: Path) -> Non
     prob = np.asarray(ds["release_probability"].values, dtype=float)
     k = max(1, int(round(2.0 / scn.setup.dx)))  # ~2 m pixels for the figure
     px, py = area.to_map(x[::k, None], y[None, ::k])
-    fig, axes = plt.subplots(1, 2, figsize=(10, 6.2), gridspec_kw={"width_ratios": [1, 1]})
+    fig = Figure(figsize=(10, 6.2))
+    axes = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1]})
     for i, ax in enumerate(axes):
         ax.imshow(hs, extent=ext, cmap="gray", origin="upper")
         cs = ax.contour(dem.x, dem.y, z.T, levels=np.arange(0, 4000, 50), colors="0.35",
@@ -366,12 +368,11 @@ def plot(path: str, scn: Any, ds: Any, pfts: dict[str, Path], file: Path) -> Non
     ax.legend(fontsize=7, loc="best")
     ax.set_title("com1DFA runouts", fontsize=9)
     for ax in axes:
-        ax.xaxis.set_major_locator(plt.MaxNLocator(3))
+        ax.xaxis.set_major_locator(MaxNLocator(3))
         ax.tick_params(labelsize=7)
     fig.tight_layout()
     file.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(file, dpi=80)
-    plt.close(fig)
 
 
 def _avaframe_python() -> str | None:
