@@ -142,6 +142,9 @@ def test_toy_release_runs_out_in_com1dfa(tmp_path, monkeypatch):
     exe = _avaframe_python()
     if exe is None:
         pytest.skip("AvaFrame not available (set DAMJAX_AVAFRAME_PYTHON to its python)")
+    # as from a Jupyter kernel (notebook 14): its inline backend is not in AvaFrame's
+    # environment, whose matplotlib refuses it at import
+    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
     scn = rp.toy_scenario("avaKot", tmp_path, size=16.0, duration=0.1)
     row = rp.run_path("avaKot", tmp_path / "out", members=1, scenario=scn, rerun=False)
     assert row["com1dfa_friction"] == "samosATSmall"
