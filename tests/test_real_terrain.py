@@ -373,6 +373,32 @@ def test_arrival_sources_counts_independent_starts():
     two = np.minimum(one, np.hypot(x - 8, y - 1) / 50.0 + 0.01)
     assert arrival_sources(two, 0.1) == 2
     assert arrival_sources(np.full_like(one, np.inf), 0.1) == 0
+    # a cell with next to no strength 0.8 m ahead of the front fails before the tip
+    # arrives: the same front within a reach of 0.96 m, a source of its own within 0.5 m
+    ahead = one.copy()
+    ahead[60, 40] = one[52, 40] + 1e-4
+    assert arrival_sources(ahead, 0.1, reach_m=0.96) == 1
+    assert arrival_sources(ahead, 0.1, reach_m=0.5) == 2
+    # two spots failing at once: one source within the reach of one another, two beyond
+    both = np.full_like(one, np.inf)
+    both[20, 20] = both[26, 20] = 0.0
+    assert arrival_sources(both, 0.1, reach_m=0.7) == 1
+    assert arrival_sources(both, 0.1, reach_m=0.5) == 2
+
+
+def test_weak_spots_failing_by_themselves_are_sources_of_their_own():
+    """A run's summary counts each weak spot that fails under its own slab at t = 0, 2 m
+    apart (beyond the reach of one failure, 0.96 m here), as a source; a run from the
+    trigger alone has one."""
+    setup = SlopeSetup(length=8.0, width=4.0, dx=0.1, duration=0.1, start=(2.0, 2.0),
+                       particles_per_cell=1, chunk_steps=100)  # fmt: skip
+    tau = np.full((80, 40), 1000.0)  # tau_g = 788 Pa at 40 deg under 0.5 m
+    one = quiet(simulate_slope, SLAB, setup, slope_deg=40.0, tau_peak=tau).summary
+    tau[64:67, 8:11] = tau[64:67, 29:32] = 400.0
+    two = quiet(simulate_slope, SLAB, setup, slope_deg=40.0, tau_peak=tau).summary
+    assert one["arrival_sources"] == 1 and one["sawn_area_m2"] > 0.0
+    assert two["initial_failure_area_m2"] == pytest.approx(0.18, rel=1e-6)
+    assert two["arrival_sources"] == 2
 
 
 def test_snow_cover_runs_stay_differentiable_and_vmappable():

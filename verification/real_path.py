@@ -232,6 +232,30 @@ def terrain_metrics(folder: Path, ds: Any) -> dict[str, Any]:
     return {k: sj.get(k) for k in keys if k in sj}
 
 
+def recount_sources(scn: Any, ds: Any) -> dict[str, Any]:
+    """The sources of each member's stored arrival-time map counted again with the
+    current `damjax.slope.simulation.arrival_sources` and the scenario's reach (the
+    model's `source_reach` from its values: dx, E, nu, the thickest slab, K)."""
+    from damjax import scenario as scenarios
+    from damjax.slope.simulation import arrival_sources, reach_of
+
+    prep = scenarios.prepared(scn)
+    p, dx = prep.params, float(prep.setup.dx)
+    th = prep.snow()["thickness"]
+    h = float(p.thickness) if th is None else float(np.nanmax(np.asarray(th, float)))
+    reach = reach_of(
+        dx, float(p.youngs_modulus), float(p.poisson), h,
+        float(p.wl_shear_modulus) / float(p.wl_thickness),
+    )  # fmt: skip
+    t = np.asarray(ds["arrival_time"].values, float)
+    counts = [arrival_sources(m, dx, reach) for m in (t if t.ndim == 3 else t[None])]
+    return {
+        "source_reach_m": round(reach, 3),
+        "arrival_sources": counts,
+        "members_one_source": int(sum(c == 1 for c in counts)),
+    }
+
+
 # ------------------------------------------------------------------ damjax's side
 
 
@@ -481,6 +505,28 @@ def _with_duration(path: str, duration: float | None) -> Any:
     return dataclasses.replace(scn, setup=dataclasses.replace(scn.setup, duration=duration))
 
 
+def recount(path: str, run_dir: Path, members: int, commit: str | None) -> None:
+    """`recount_sources` of a finished run folder, printed and added under ``recount`` to
+    the latest row of ``path`` with ``members`` members."""
+    import warnings
+
+    from damjax import scenario as scenarios
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scn = scenarios.load(scenario_name(path))
+    rc = recount_sources(scn, load_run(run_dir))
+    rc.update(date=time.strftime("%Y-%m-%d"), commit=commit, run_dir=str(run_dir))
+    print(json.dumps(rc))
+    lines = RESULTS.read_text(encoding="utf-8").splitlines()
+    rows = [json.loads(line) for line in lines]
+    hits = [i for i, r in enumerate(rows) if r.get("path") == path and r.get("members") == members]
+    if not hits:
+        raise SystemExit(f"no row of {path} with {members} members in {RESULTS}")
+    rows[hits[-1]]["recount"] = rc
+    RESULTS.write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--path", choices=(*PATHS, "all"), default="all")
@@ -495,6 +541,13 @@ def main(argv: list[str] | None = None) -> None:
         help="simulated time [s] instead of the scenario's (an ensemble on a CPU: the time "
         "by which one member's release stopped growing)",
     )
+    ap.add_argument(
+        "--recount",
+        action="store_true",
+        help="with --run-dir: count the sources of the stored arrival-time maps again with "
+        "the current criterion and add them (with commit and date) to the path's latest "
+        "row of that many members in results/real_path.jsonl; nothing else runs",
+    )
     ap.add_argument("--com1dfa", metavar="AVADIR", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--frict", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -507,6 +560,11 @@ def main(argv: list[str] | None = None) -> None:
     from benchmarks.cases import git_commit
 
     commit = git_commit()  # the code that runs (taken before the runs: they take hours)
+    if args.recount:
+        if not args.run_dir or len(paths) != 1:
+            raise SystemExit("--recount needs --run-dir and one --path")
+        recount(paths[0], Path(args.run_dir), args.members, commit)
+        return
     for path in paths:
         out = Path(args.out) / path
         fig = None if args.no_figure else IMAGES / f"real_path_{path.lower()}.png"

@@ -392,23 +392,57 @@ def initial_failures(model: Model) -> Any:
     return model.weak_layer.tau_peak <= model.slab.density * model.slab.thickness * g_t
 
 
-SOURCE_WINDOW_M = 2.0  # [m] the window of `arrival_sources`' local minima
+def source_reach(model: Model) -> float:
+    """How far [m] one failure reaches within the same front: 3 dx, the reach of one step
+    of the quadratic B-spline stencil along an axis (a particle's slip moves the nodes
+    within 1.5 dx of it, and they the particles within 1.5 dx of them), plus the slab's
+    elastic length Lambda = sqrt(E h0 / ((1 - nu^2) K)) at its thickest, over which a
+    crack tip's shear stress decays ahead of it: a cell with next to no strength to spare
+    (S close to 1, or a near-flat cell of a stability-ratio layer) fails there a step
+    before the tip arrives."""
+    slab = model.slab
+    return reach_of(
+        model.grid.dx,
+        float(np.max(np.asarray(slab.youngs_modulus))),
+        float(np.min(np.asarray(slab.poisson))),
+        float(np.max(np.asarray(slab.thickness))),
+        float(np.min(np.asarray(model.weak_layer.stiffness))),
+    )
 
 
-def arrival_sources(arrival_time: np.ndarray, dx: float, window_m: float = SOURCE_WINDOW_M) -> int:
-    """How many sources the arrival-time map has: connected groups of released cells whose
-    failure time is the earliest within ``window_m`` around them. A crack that ran from
-    the trigger alone has one (the trigger); every weak spot that failed by itself adds
-    one. 0 when nothing released."""
+def reach_of(dx: float, youngs_modulus: float, poisson: float, thickness: float, k: float) -> float:
+    """`source_reach` from its values: dx [m], E [Pa], nu [-], the largest h0 [m] and the
+    weak layer's stiffness K = G_wl / D_wl [Pa/m]."""
+    lam = math.sqrt(youngs_modulus * thickness / ((1.0 - poisson * poisson) * k))
+    return 3.0 * dx + lam
+
+
+def arrival_sources(arrival_time: np.ndarray, dx: float, reach_m: float | None = None) -> int:
+    """How many sources the arrival-time map ((nx, ny) [s] on cells of ``dx`` [m]; inf or
+    NaN: never failed) has: places whose cells failed with no earlier failure within
+    ``reach_m`` [m] of them (the reach of one failure within the same front,
+    `source_reach`; None: 3 dx, the B-spline stencil's alone). Such cells closer than
+    ``reach_m`` to one another are one source. A crack that ran from the trigger alone
+    has one (the trigger); every weak spot that failed by itself adds one. 0 when
+    nothing released."""
     from scipy import ndimage
 
     t = np.where(np.isfinite(arrival_time), arrival_time, np.inf)
     if not np.isfinite(t).any():
         return 0
-    k = 2 * max(1, int(round(0.5 * window_m / dx))) + 1
-    low = np.isfinite(t) & (t <= ndimage.minimum_filter(t, size=k, mode="nearest"))
-    _, n = ndimage.label(low, structure=np.ones((3, 3), bool))
-    return int(n)
+    reach = 3.0 * dx if reach_m is None else float(reach_m)
+
+    def disc(radius: float) -> np.ndarray:
+        r = int(math.floor(radius / dx + 1e-9))
+        i, j = np.mgrid[-r : r + 1, -r : r + 1]
+        return np.hypot(i, j) * dx <= radius + 1e-9 * dx
+
+    earliest = ndimage.minimum_filter(t, footprint=disc(reach), mode="constant", cval=np.inf)
+    first = np.isfinite(t) & (t <= earliest)
+    # first cells within the reach of one another: one source (discs of half the reach)
+    grown = ndimage.binary_dilation(first, structure=disc(0.5 * reach))
+    groups, _ = ndimage.label(grown, structure=np.ones((3, 3), bool))
+    return int(np.unique(groups[first]).size)
 
 
 # share of the released area's boundary on the domain's edge above which a run warns
@@ -1000,7 +1034,7 @@ def run(
         # share of the released area's boundary on the domain's edge (None: no release)
         "domain_edge_fraction": edge_frac,
         # sources of the arrival-time map (1: the trigger alone)
-        "arrival_sources": arrival_sources(cm(t_b, "min"), setup.dx),
+        "arrival_sources": arrival_sources(cm(t_b, "min"), setup.dx, source_reach(model)),
         "snow_area_m2": float(xp.size * float(model.slab.area0)),
         "shear_wave_speed_m_per_s": cs,
         "fault": fault,
