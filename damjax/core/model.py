@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -244,10 +244,8 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
     lattice = (cx.size,) if layout.dim == 1 else (cx.size, cy.size)
     y_ref = None if layout.dim == 1 else (cell0[1] - y0 + frac0[1]) * dx
     extent = setup.length if layout.dim == 1 else (setup.length, cy.size * dx / ppc)
-    tensile, g_f, slab_kw = _slab_fracture(params, setup, plastic, lattice, x_ref, y_ref, extent)
+    fracture = _slab_fracture(params, setup, plastic, lattice, x_ref, y_ref, extent)
 
-    phi = jnp.deg2rad(f(params.friction_deg))
-    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     x_ref_j = jnp.asarray(x_ref, dtype)
     if params.slope_profile is not None:  # psi(x) at the particles' reference positions
         sprof = jnp.asarray(params.slope_profile, dtype)
@@ -265,10 +263,9 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         tau_p = weak_layer.strength_profile(
             x_ref_j, f(params.tau_peak), f(params.steady_length), f(params.strength_gradient)
         )
-    _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     g_t = jnp.zeros((layout.dim, n), dtype).at[0].set(-G_ACC * jnp.sin(psi))
 
-    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -tau_g along x
+    def preload(K: Any) -> tuple[Any, Any]:  # the loaded layer's slip: K u = -tau_g along x
         tau_g = f(params.density) * G_ACC * f(params.thickness) * jnp.sin(psi)
         u0 = jnp.zeros((layout.dim, n), dtype).at[0].set(-tau_g / K)
         return u0, jnp.abs(u0[0])
@@ -285,16 +282,10 @@ def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, St
         saw_coord=x_ref_j,
         dt=_guarded_dt(params, setup, f(setup.duration / layout.n_steps), elastic_guard),
         area0=area0,
-        plastic=plastic,
-        tensile_strength=tensile,
-        fracture_energy=g_f,
-        slab_fields=slab_kw,
+        slab_fracture=fracture,
         psi=psi,
-        phi=phi,
         g_tangent=g_t,
-        stiffness=K,
         tau_peak=tau_p,
-        u_res=u_res,
         preload=preload,
     )
 
@@ -313,17 +304,11 @@ def _model_and_state(
     dt: Any,
     thickness: Any = None,
     area0: float,
-    plastic: bool,
-    tensile_strength: Any,
-    fracture_energy: Any,
-    slab_fields: dict[str, Any],
+    slab_fracture: _SlabFractureInputs,
     psi: Any,
-    phi: Any,
     g_tangent: Any,
-    stiffness: Any,
     tau_peak: Any,
-    u_res: Any,
-    preload: Callable[[], tuple[Any, Any]],
+    preload: Callable[[Any], tuple[Any, Any]],
     outflow: bool = False,
 ) -> tuple[Model, State]:
     """The `Model` and its initial `State` of a PST or a slope, from the fields at the
@@ -333,15 +318,16 @@ def _model_and_state(
     ``saw_coord``: the distance along the saw path [m]; ``dt``: the time step [s], with
     its runtime checks; ``thickness``: h0 [m], a scalar or (n,) per particle (None:
     ``params.thickness``); ``area0``: the reference column-base area per particle
-    [m^2]; ``plastic``, ``tensile_strength`` sigma_t [Pa], ``fracture_energy`` G_f
-    [J/m^2] and ``slab_fields``, the static fields of the slab fracture model
-    (`_slab_fracture`); ``psi``: the slope angle [rad] (scalar or (n,)); ``phi``: the
-    weak layer's friction angle [rad]; ``g_tangent``: gravity along the slope (dim, n)
-    [m/s^2]; ``stiffness``: K [Pa/m]; ``tau_peak``, ``u_res``: (n,) strength [Pa] and
-    residual slip [m]; ``preload``: the slip of the loaded weak layer in equilibrium
-    with an unstressed slab, (dim, n), and its magnitude, (n,) [m]; ``outflow``: a
+    [m^2]; ``slab_fracture``: the slab law, sigma_t, G_f and the static fields of the
+    slab fracture model (`_slab_fracture`); ``psi``: the slope angle [rad] (scalar or
+    (n,)); ``g_tangent``: gravity along the slope (dim, n) [m/s^2]; ``tau_peak``: (n,)
+    strength [Pa]; ``preload``: given the weak layer's stiffness K [Pa/m], the slip of
+    the loaded weak layer in equilibrium with an unstressed slab, (dim, n), and its
+    magnitude, (n,) [m]; ``outflow``: a
     particle that slides over the grid's edge leaves the run (`State.outflow`) instead
-    of stopping it with a fault. Everything else comes from ``params`` and ``setup``.
+    of stopping it with a fault. Everything else comes from ``params`` and ``setup``: the
+    weak layer's K = G_wl / D_wl, its residual slip u_res (n,) [m] and its friction
+    angle.
     The derived constants (front width, w_c, the smallest mass) are derived once here,
     not every step (`Model.with_constants`).
 
@@ -353,6 +339,8 @@ def _model_and_state(
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     n = saw_coord.shape[0]
     dim = len(grid_shape)
+    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
+    _, u_res = weak_layer.critical_displacements(tau_peak, K, f(params.softening))
     # made in this order (grid, slab, fracture, gravity, weak layer, saw): the order of the
     # operations is the order of a traced parameter's uses, part of a gradient's bits
     # (`preload`)
@@ -372,9 +360,9 @@ def _model_and_state(
         lateral=lateral,
     )
     fracture = Fracture(
-        plastic=plastic,
+        plastic=slab_fracture.plastic,
         p0_init=mcc.p0_from_tensile_strength(
-            tensile_strength,
+            slab_fracture.tensile_strength,
             f(params.mcc_m),
             f(params.mcc_beta),
             setup.p0_rule,
@@ -383,18 +371,18 @@ def _model_and_state(
         mcc_m=f(params.mcc_m),
         mcc_beta=f(params.mcc_beta),
         mcc_xi=f(params.mcc_xi),
-        fracture_energy=f(fracture_energy),
+        fracture_energy=f(slab_fracture.fracture_energy),
         cell_width=float(setup.dx),
         mcc_invariants=setup.mcc_invariants,
-        **slab_fields,
+        **slab_fracture.fields,
     )
     g_normal = jnp.broadcast_to(G_ACC * jnp.cos(psi), (n,))
     layer = WeakLayer(
-        stiffness=stiffness,
+        stiffness=K,
         tau_peak=tau_peak,
         softening=f(params.softening),
         u_res=u_res,
-        friction=jnp.tan(phi),
+        friction=jnp.tan(jnp.deg2rad(f(params.friction_deg))),
     )
     saw = Saw(
         saw_coord=saw_coord,
@@ -413,7 +401,7 @@ def _model_and_state(
         g_normal=g_normal,
         accumulation=transfer.resolve_accumulation(setup.accumulation),
     ).with_constants()
-    u0, u_max = preload()
+    u0, u_max = preload(K)
     state = State(
         u=u0,
         v=jnp.zeros((dim, n), dtype),
@@ -437,6 +425,17 @@ def _model_and_state(
     return model, state
 
 
+class _SlabFractureInputs(NamedTuple):
+    """What `_slab_fracture` decides for `_model_and_state`: the slab law (``plastic``),
+    sigma_t [Pa] (a scalar or per particle), G_f [J/m^2] and the static fields of the
+    slab fracture model (`Fracture`'s lattice keywords)."""
+
+    plastic: bool
+    tensile_strength: Any
+    fracture_energy: Any
+    fields: dict[str, Any]
+
+
 def _slab_fracture(
     params: PSTParams,
     setup: Any,
@@ -446,10 +445,11 @@ def _slab_fracture(
     y_ref: np.ndarray | None,
     extent: float | tuple[float, float],
     lattice_for_paper: bool = True,
-) -> tuple[Any, Any, dict[str, Any]]:
-    """The slab's tensile strength [Pa] (per particle for "crack_band"), its fracture
-    energy G_f [J/m^2] and the static fields of the slab fracture model (`Fracture`)
-    (`PSTSetup.slab_fracture`; `damjax.materials.slab_fracture`).
+) -> _SlabFractureInputs:
+    """The slab law ``plastic`` as given, the slab's tensile strength [Pa] (per particle
+    for "crack_band"), its fracture energy G_f [J/m^2] and the static fields of the slab
+    fracture model (`Fracture`) (`PSTSetup.slab_fracture`;
+    `damjax.materials.slab_fracture`).
 
     Every plastic slab gets the particles' lattice (x-major, ``lattice`` particles per
     axis at spacing dx / ppc), so fractures are counted from band openings for every
@@ -467,7 +467,7 @@ def _slab_fracture(
         g_f = slab_fracture.DEFAULT_FRACTURE_ENERGY if crack_band else math.inf
     tensile = jnp.asarray(params.tensile_strength, dtype)
     if not plastic or not (crack_band or lattice_for_paper):
-        return tensile, g_f, {}
+        return _SlabFractureInputs(plastic, tensile, g_f, {})
     spacing = setup.dx / int(setup.particles_per_cell)
     kw = dict(
         lattice=tuple(int(s) for s in lattice),
@@ -485,7 +485,7 @@ def _slab_fracture(
             extent,
             None if y_ref is None else jnp.asarray(y_ref, dtype),
         )
-    return tensile, g_f, kw
+    return _SlabFractureInputs(plastic, tensile, g_f, kw)
 
 
 def check_layout(params: PSTParams, setup: PSTSetup, layout: Layout) -> None:
@@ -715,7 +715,7 @@ def build_slope(
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
     plastic = layout.plastic if plastic is None else plastic
-    tensile, g_f, slab_kw = _slab_fracture(
+    fracture = _slab_fracture(
         params,
         setup,
         plastic,
@@ -733,14 +733,11 @@ def build_slope(
     maps.update(thickness=thickness, stability=stability, wl_friction=wl_friction)
     checks = _param_checks(params) + traced_checks(maps, table, "cell")
     dt = _checked(f(setup.duration / layout.n_steps), checks)
-    K = f(params.wl_shear_modulus) / f(params.wl_thickness)
-    _, u_res = weak_layer.critical_displacements(tau_p, K, f(params.softening))
     gs = G_ACC * jnp.sin(psi)
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
-    phi = jnp.deg2rad(f(params.friction_deg))
     x0, y0 = setup.start
 
-    def preload() -> tuple[Any, Any]:  # the loaded layer's slip: K u = -rho h g_t
+    def preload(K: Any) -> tuple[Any, Any]:  # the loaded layer's slip: K u = -rho h g_t
         u0 = (f(params.density) * h0 / K) * g_t
         return u0, mcc._sqrt(jnp.sum(u0 * u0, axis=0))  # finite gradient on a flat cell
 
@@ -757,16 +754,10 @@ def build_slope(
         dt=dt,
         thickness=h0,
         area0=(dx / ppc) ** 2,
-        plastic=plastic,
-        tensile_strength=tensile,
-        fracture_energy=g_f,
-        slab_fields=slab_kw,
+        slab_fracture=fracture,
         psi=psi,
-        phi=phi,
         g_tangent=g_t,
-        stiffness=K,
         tau_peak=tau_p,
-        u_res=u_res,
         preload=preload,
         outflow=outflow,
     )
