@@ -17,7 +17,12 @@ from damjax import PSTParams, SlopeSetup, fields, scenario, simulate_slope, snow
 from damjax.core.loop import integrate
 from damjax.core.model import build_slope, make_slope_layout
 from damjax.scenario import slope_fields
-from damjax.slope.simulation import arrival_sources, domain_edge_fraction
+from damjax.slope.simulation import (
+    arrival_sources,
+    domain_edge_fraction,
+    prepare,
+    sliding_region,
+)
 
 SLAB = PSTParams(thickness=0.5, tensile_strength=4000.0, softening=1.0)
 
@@ -346,6 +351,29 @@ def test_domain_edge_fraction_counts_boundary_faces():
     dom[2, :] = False  # outside the domain above it: 3 more faces
     assert domain_edge_fraction(rel, dom) == pytest.approx(6 / 10)
     assert domain_edge_fraction(np.zeros_like(rel)) is None
+
+
+def test_a_domain_the_slidable_terrain_overruns_is_said_before_the_run():
+    """With a domain (a polygon's buffer), the snow steeper than the friction angle that
+    the start connects to is where a crack runs if nothing else stops it: when its
+    boundary lies on the domain's edge, `prepare` says so before the run; gentle ground
+    around it inside the domain bounds it, and nothing is said."""
+    setup = SlopeSetup(length=30.0, width=20.0, dx=0.25, duration=0.1, start=(15.0, 10.0))
+    x, y = np.meshgrid((np.arange(120) + 0.5) * 0.25, (np.arange(80) + 0.5) * 0.25, indexing="ij")
+    domain = np.ones((120, 80), bool)
+    plane = np.full((120, 80), 35.0)
+    region = sliding_region(plane, 27.0, setup.start, 0.25, domain=domain)
+    assert region.all() and domain_edge_fraction(region, domain) == 1.0
+    notes = prepare(SLAB, setup, slope_deg=plane, tau_peak=2000.0, domain=domain).notes
+    assert any("bounded by the domain, not the terrain" in n.text() for n in notes)
+    bowl = np.where(np.hypot(x - 15.0, y - 10.0) < 6.0, 35.0, 10.0)
+    region = sliding_region(bowl, 27.0, setup.start, 0.25, domain=domain)
+    assert 0.8 * math.pi * 36 < region.sum() * 0.0625 < 1.2 * math.pi * 36
+    assert domain_edge_fraction(region, domain) == 0.0
+    notes = prepare(SLAB, setup, slope_deg=bowl, tau_peak=2000.0, domain=domain).notes
+    assert not any("bounded by the domain" in n.text() for n in notes)
+    # a start on gentle ground reaches nothing
+    assert not sliding_region(bowl, 27.0, (2.0, 2.0), 0.25).any()
 
 
 def test_random_triggers_lie_in_the_start_zone(tmp_path):

@@ -372,6 +372,36 @@ def _slope_notes(
     return notes
 
 
+def _domain_notes(
+    params: PSTParams, setup: SlopeSetup, slope_deg: Any, cover: Any, domain: Any
+) -> list[Problem]:
+    """A domain the terrain should bound (``domain``: a release polygon's buffer within
+    the DEM) whose edge the start's `sliding_region` reaches above `DOMAIN_EDGE_WARN`:
+    unless the weak layer or the slab stops the crack inside it, the release will end on
+    the domain's edge (said before the run, not after it)."""
+    phi = float(params.friction_deg)
+    region = sliding_region(slope_deg, phi, setup.start, setup.dx, cover, domain)
+    frac = domain_edge_fraction(region, domain) if region.any() else None
+    if frac is None or frac <= DOMAIN_EDGE_WARN:
+        return []
+    area = float(region.sum()) * setup.dx**2
+    return [
+        Problem(
+            None,
+            frac,
+            f"the snow steeper than friction_deg = {phi:g} that the start connects to "
+            f"({area:.6g} m^2, where a released slab slides) has {100 * frac:.3g} % of its "
+            "boundary on the domain's edge: unless the weak layer or the slab stops the "
+            "crack inside it, the release is bounded by the domain, not the terrain "
+            "(a larger terrain.buffer, or what bounds it on the ground: a snow-depth map, "
+            "a mask)",
+            form="line",
+            setup=SlopeSetup,
+            category="slope",
+        )
+    ]
+
+
 def overloaded_fraction(
     params: PSTParams, slope_deg: Any, tau_peak: Any, thickness: Any = None
 ) -> float:
@@ -447,6 +477,36 @@ def arrival_sources(arrival_time: np.ndarray, dx: float, reach_m: float | None =
 
 # share of the released area's boundary on the domain's edge above which a run warns
 DOMAIN_EDGE_WARN = 0.05
+
+
+def sliding_region(
+    slope_deg: Any,
+    friction_deg: float,
+    start: tuple[float, float],
+    dx: float,
+    cover: Any = None,
+    domain: Any = None,
+) -> np.ndarray:
+    """(nx, ny) bool: the terrain a crack from ``start`` (x, y) [m] can release if nothing
+    but the terrain stops it: the snow-covered cells (``cover``, within ``domain``; None:
+    every cell) steeper than the weak layer's residual friction angle ``friction_deg``
+    (there a released slab slides, so the crack runs on), connected (8 neighbours) to
+    the start's cell. Empty when the start's cell is not one of them. Its
+    `domain_edge_fraction` before a run says whether the domain or the terrain can
+    bound the release."""
+    from scipy import ndimage
+
+    psi = np.asarray(slope_deg, dtype=float)
+    ok = np.isfinite(psi) & (psi > float(friction_deg))
+    for mask in (cover, domain):
+        if mask is not None:
+            ok &= np.asarray(mask, bool)
+    i = min(max(int(start[0] / dx), 0), psi.shape[0] - 1)
+    j = min(max(int(start[1] / dx), 0), psi.shape[1] - 1)
+    if not ok[i, j]:
+        return np.zeros_like(ok)
+    labels, _ = ndimage.label(ok, structure=np.ones((3, 3), bool))
+    return labels == labels[i, j]
 
 
 def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None) -> float | None:
@@ -800,6 +860,8 @@ def prepare(
         Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
         for note in _slope_notes(params, setup, slope_deg, fall_deg)
     ]
+    if domain is not None and np.ndim(slope_deg) == 2:
+        notes.extend(_domain_notes(params, setup, slope_deg, snow["cover"], domain))
     if layout is None:
         layout = make_slope_layout(params, setup, steepest_covered(slope_deg, snow["cover"]))
         _check_size(layout, setup, max_particles, snow["cover"])
