@@ -20,6 +20,7 @@ PAGES = {
     "fig12a_ensemble": "docs/guide/sweeps.md",
     "real_path": "docs/guide/real-path.md",
     "real_path_data": "damjax/data/paths (the shipped avalanche paths)",
+    "sliding_terrain": "docs/guide/real-path.md",
     "avaframe_runout": "docs/guide/profiles-gis.md",
     "figures": "docs/images/*.png (every page's figures)",
 }

@@ -1,0 +1,119 @@
+"""What can bound a release on the shipped avalanche paths: the slidable snow of the terrain.
+
+For each shipped real-path scenario (``real-path-avaalr``, ``real-path-avakot``) and each
+buffer around its release polygon (``--buffers``, metres of terrain, clipped to the DEM;
+a buffer larger than the DEM is the whole DEM), with the scenario's snow cover (no slab
+steeper than 60 deg) and its weak layer's residual friction angle:
+
+- the snow-covered area in the domain, and the share of it at or below the friction
+  angle (where a released slab does not slide, so a crack stops if nothing else does);
+- `damjax.slope.simulation.sliding_region`: the snow steeper than the friction angle that
+  the scenario's start connects to, the terrain a crack from the trigger releases if
+  only the terrain stops it, and its `domain_edge_fraction`: the share of its boundary on
+  the domain's edge.
+
+A release bounded by the terrain needs that share small (the real-path acceptance line
+is 5 %); it is a property of the DEM, the snow limit and the friction angle, measured
+without a run. One JSON line per (path, buffer), printed and appended to
+``results/sliding_terrain.jsonl``.
+
+    python -m verification.sliding_terrain                      # 150, 300, 600 m, whole DEM
+    python -m verification.sliding_terrain --path avaAlr --buffers 150 1000
+
+Cost (2026-11-27, 2-core CPU): seconds per buffer, a minute for a whole DEM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import tomllib
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "results" / "sliding_terrain.jsonl"
+PATHS = ("avaAlr", "avaKot")
+WHOLE_DEM = 3000.0  # [m] a buffer beyond both shipped DEMs: the whole DEM
+
+
+def with_buffer(name: str, buffer: float) -> Any:
+    """The shipped scenario ``name`` with ``terrain.buffer`` [m] (its domain made anew)."""
+    from damjax import scenario as scenarios
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        doc = tomllib.loads(scenarios.load(name).to_toml())
+        doc["terrain"]["buffer"] = float(buffer)
+        # set by the polygon and its buffer: made anew
+        doc["terrain"].pop("origin", None)
+        for key in ("length", "width", "start"):
+            doc["setup"].pop(key, None)
+        return scenarios.parse(doc, base_dir=scenarios.shipped()[name].parent)
+
+
+def measure(path: str, buffer: float) -> dict[str, Any]:
+    """One row: the domain's snow, its share below the friction angle, and the start's
+    sliding region with its share of boundary on the domain's edge."""
+    from damjax import scenario as scenarios
+    from damjax.slope.simulation import domain_edge_fraction, sliding_region
+
+    t0 = time.perf_counter()
+    scn = with_buffer(f"real-path-{path.lower()}", buffer)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prep = scenarios.prepared(scn)
+    dx = float(prep.setup.dx)
+    slope = np.asarray(prep.slope_deg, float)
+    dom = np.ones(slope.shape, bool) if prep.domain is None else np.asarray(prep.domain, bool)
+    snow = dom if prep.cover is None else dom & np.asarray(prep.cover, bool)
+    phi = float(prep.params.friction_deg)
+    region = sliding_region(slope, phi, prep.setup.start, dx, snow, dom)
+    cell = dx * dx
+    gentle = float((snow & (slope <= phi)).sum() / snow.sum())
+    return {
+        "benchmark": "sliding_terrain",
+        "path": path,
+        "buffer_m": buffer,
+        "whole_dem": buffer >= WHOLE_DEM,
+        "friction_deg": phi,
+        "domain_m": [round(float(prep.setup.length), 1), round(float(prep.setup.width), 1)],
+        "snow_m2": round(float(snow.sum()) * cell),
+        "snow_at_or_below_friction_share": round(gentle, 4),
+        "sliding_region_m2": round(float(region.sum()) * cell),
+        "sliding_region_particles": int(region.sum()),
+        "sliding_region_edge_fraction": round(float(domain_edge_fraction(region, dom)), 4),
+        "wall_s": round(time.perf_counter() - t0, 1),
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--path", choices=(*PATHS, "all"), default="all")
+    ap.add_argument(
+        "--buffers",
+        type=float,
+        nargs="+",
+        default=[150.0, 300.0, 600.0, WHOLE_DEM],
+        help=f"buffers around the polygon [m] ({WHOLE_DEM:g}: the whole DEM)",
+    )
+    ap.add_argument("--no-write", action="store_true", help="print only")
+    args = ap.parse_args(argv)
+    from benchmarks.cases import git_commit
+
+    commit, date = git_commit(), time.strftime("%Y-%m-%d")
+    for path in PATHS if args.path == "all" else (args.path,):
+        for buffer in args.buffers:
+            row = {**measure(path, buffer), "date": date, "commit": commit}
+            print(json.dumps(row), flush=True)
+            if not args.no_write:
+                with open(RESULTS, "a", encoding="utf-8") as f:
+                    f.write(json.dumps(row) + "\n")
+
+
+if __name__ == "__main__":
+    main()
