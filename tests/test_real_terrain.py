@@ -427,6 +427,8 @@ def test_weak_spots_failing_by_themselves_are_sources_of_their_own():
     assert one["arrival_sources"] == 1 and one["sawn_area_m2"] > 0.0
     assert two["initial_failure_area_m2"] == pytest.approx(0.18, rel=1e-6)
     assert two["arrival_sources"] == 2
+    # their cracks lead the saw from the first step: no cut radius was critical
+    assert two["saw_stopped"] and two["critical_cut_radius_m"] is None
 
 
 def test_snow_cover_runs_stay_differentiable_and_vmappable():

@@ -1082,7 +1082,10 @@ def run(
         "stauchwall_area_m2": float(np.sum(stauch) * setup.dx**2),
         "slab_fracture_area_m2": float(np.sum(_fractured_cells(model, final, cm)) * setup.dx**2),
         "release_area_smooth_m2": float(release_area_smooth(model, final)),
-        "critical_cut_radius_m": saw_r if not bool(final.saw_active) else None,
+        # a weak layer failing at t = 0 leads the saw at once: no cut was critical
+        "critical_cut_radius_m": (
+            saw_r if not bool(final.saw_active) and not fails0.any() else None
+        ),
         # the saw stops once the crack leads it: until then the release is the cut
         "saw_stopped": not bool(final.saw_active),
         "sawn_area_m2": float(
