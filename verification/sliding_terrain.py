@@ -19,6 +19,8 @@ without a run. One JSON line per (path, buffer), printed and appended to
 
     python -m verification.sliding_terrain                      # 150, 300, 600 m, whole DEM
     python -m verification.sliding_terrain --path avaAlr --buffers 150 1000
+    python -m verification.sliding_terrain --path avaAlr --field-dx 2 \
+        --dem AVAFRAME/avaframe/data/avaAlr/Inputs/avaAlr.tif  # AvaFrame's whole DEM
 
 Cost (2026-11-27, 2-core CPU): seconds per buffer, a minute for a whole DEM.
 """
@@ -41,14 +43,24 @@ PATHS = ("avaAlr", "avaKot")
 WHOLE_DEM = 3000.0  # [m] a buffer beyond both shipped DEMs: the whole DEM
 
 
-def with_buffer(name: str, buffer: float) -> Any:
-    """The shipped scenario ``name`` with ``terrain.buffer`` [m] (its domain made anew)."""
+def with_buffer(
+    name: str, buffer: float, dem: str | None = None, field_dx: float | None = None
+) -> Any:
+    """The shipped scenario ``name`` with ``terrain.buffer`` [m] (its domain made anew)
+    and, given, another DEM file of the same CRS (``dem``: e.g. AvaFrame's whole DEM of
+    the path, of which the shipped one is a crop); ``field_dx`` [m]: the grid of the
+    stability field, which here only places the trigger (None: the scenario's, the run's
+    grid; a coarser one where a large domain's field would not fit)."""
     from damjax import scenario as scenarios
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         doc = tomllib.loads(scenarios.load(name).to_toml())
         doc["terrain"]["buffer"] = float(buffer)
+        if dem is not None:
+            doc["terrain"]["file"] = str(Path(dem).resolve())
+        if field_dx is not None:
+            doc["strength"]["field_dx"] = float(field_dx)
         # set by the polygon and its buffer: made anew
         doc["terrain"].pop("origin", None)
         for key in ("length", "width", "start"):
@@ -56,14 +68,16 @@ def with_buffer(name: str, buffer: float) -> Any:
         return scenarios.parse(doc, base_dir=scenarios.shipped()[name].parent)
 
 
-def measure(path: str, buffer: float) -> dict[str, Any]:
+def measure(
+    path: str, buffer: float, dem: str | None = None, field_dx: float | None = None
+) -> dict[str, Any]:
     """One row: the domain's snow, its share below the friction angle, and the start's
     sliding region with its share of boundary on the domain's edge."""
     from damjax import scenario as scenarios
     from damjax.slope.simulation import domain_edge_fraction, sliding_region
 
     t0 = time.perf_counter()
-    scn = with_buffer(f"real-path-{path.lower()}", buffer)
+    scn = with_buffer(f"real-path-{path.lower()}", buffer, dem, field_dx)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         prep = scenarios.prepared(scn)
@@ -80,6 +94,9 @@ def measure(path: str, buffer: float) -> dict[str, Any]:
         "path": path,
         "buffer_m": buffer,
         "whole_dem": buffer >= WHOLE_DEM,
+        "dem": "shipped" if dem is None else Path(dem).name,
+        "field_dx_m": field_dx,
+        "start_m": [round(float(c), 2) for c in prep.setup.start],
         "friction_deg": phi,
         "domain_m": [round(float(prep.setup.length), 1), round(float(prep.setup.width), 1)],
         "snow_m2": round(float(snow.sum()) * cell),
@@ -101,14 +118,30 @@ def main(argv: list[str] | None = None) -> None:
         default=[150.0, 300.0, 600.0, WHOLE_DEM],
         help=f"buffers around the polygon [m] ({WHOLE_DEM:g}: the whole DEM)",
     )
+    ap.add_argument(
+        "--dem",
+        default=None,
+        help="another DEM file of the path's CRS instead of the shipped crop (e.g. "
+        "AvaFrame's avaframe/data/avaAlr/Inputs/avaAlr.tif; one --path)",
+    )
+    ap.add_argument(
+        "--field-dx",
+        type=float,
+        default=None,
+        help="grid of the stability field [m], which places the trigger (default: the "
+        "scenario's; a coarser one where a whole DEM's field would not fit)",
+    )
     ap.add_argument("--no-write", action="store_true", help="print only")
     args = ap.parse_args(argv)
     from benchmarks.cases import git_commit
 
     commit, date = git_commit(), time.strftime("%Y-%m-%d")
+    if args.dem is not None and args.path == "all":
+        raise SystemExit("--dem needs one --path")
     for path in PATHS if args.path == "all" else (args.path,):
         for buffer in args.buffers:
-            row = {**measure(path, buffer), "date": date, "commit": commit}
+            row = measure(path, buffer, args.dem, args.field_dx)
+            row.update(date=date, commit=commit)
             print(json.dumps(row), flush=True)
             if not args.no_write:
                 with open(RESULTS, "a", encoding="utf-8") as f:
