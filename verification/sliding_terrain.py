@@ -40,7 +40,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "sliding_terrain.jsonl"
 PATHS = ("avaAlr", "avaKot")
-WHOLE_DEM = 3000.0  # [m] a buffer beyond both shipped DEMs: the whole DEM
+WHOLE_DEM = 10000.0  # [m] a buffer beyond every DEM of these paths (AvaFrame's: at most 4.6 km)
 
 
 def with_buffer(
