@@ -17,12 +17,13 @@ is 5 %); it is a property of the DEM, the snow limit and the friction angle, mea
 without a run. One JSON line per (path, buffer), printed and appended to
 ``results/sliding_terrain.jsonl``.
 
-    python -m verification.sliding_terrain                      # 150, 300, 600 m, whole DEM
+    python -m verification.sliding_terrain           # 150, 300, 600 m, the whole DEM (10 km)
     python -m verification.sliding_terrain --path avaAlr --buffers 150 1000
     python -m verification.sliding_terrain --path avaAlr --field-dx 2 \
         --dem AVAFRAME/avaframe/data/avaAlr/Inputs/avaAlr.tif  # AvaFrame's whole DEM
 
-Cost (2026-11-27, 2-core CPU): seconds per buffer, a minute for a whole DEM.
+Cost (2026-11-27, 2-core CPU): seconds per buffer, a minute for a whole DEM (AvaFrame's
+avaAlr DEM: 81 s, 10 GB peak memory).
 """
 
 from __future__ import annotations
