@@ -150,3 +150,18 @@ def test_toy_release_runs_out_in_com1dfa(tmp_path, monkeypatch):
     assert row["com1dfa_friction"] == "samosATSmall"
     assert row["runout_area_m2"] > 0 and 0 <= row["runout_overlap_iou"] <= 1
     assert np.isfinite(row["runout_length_m"]) and row["reference_runout_length_m"] > 1000
+
+
+def test_the_shipped_avakot_release_can_only_be_bounded_by_its_buffer():
+    """`verification.sliding_terrain` on the shipped avaKot scenario (150 m buffer): the
+    snow steeper than the friction angle that the trigger connects to is nearly all the
+    snow in the domain, and a third of its boundary is the buffer's edge (the guide's
+    "What can bound a release on these DEMs"); the scenario says so before a run."""
+    from verification import sliding_terrain as st
+
+    row = st.measure("avaKot", 150.0)
+    assert row["dem"] == "shipped" and row["friction_deg"] == 27.0
+    assert 0.9 * row["snow_m2"] < row["sliding_region_m2"] <= row["snow_m2"]
+    assert 0.3 < row["sliding_region_edge_fraction"] < 0.4
+    notes = [n.text() for n in scenario.prepared(scenario.load("real-path-avakot")).notes]
+    assert any("bounded by the domain, not the terrain" in n for n in notes)
