@@ -454,6 +454,15 @@ def run_path(
     prob = np.asarray(ds["release_probability"].values, dtype=float)
     row.update({k: round(v, 4) for k, v in release_metrics(scn, prob, x, y).items()})
     row.update(terrain_metrics(folder, ds))
+    if "arrival_time" in ds:  # the sources by the current criterion (a reused run's too)
+        rc = recount_sources(scn, ds)
+        counts = rc["arrival_sources"] if "member" in ds.dims else rc["arrival_sources"][0]
+        stored = row.get("arrival_sources")
+        if stored is not None and np.any(np.asarray(stored) != np.asarray(counts)):
+            row["arrival_sources_as_run"] = stored
+        row["arrival_sources"] = counts
+        if "member" in ds.dims:
+            row["members_one_source"] = rc["members_one_source"]
     pfts: dict[str, Path] = {"reference": DATA / path / "reference_pft.tif"}
     python = _avaframe_python() if avaframe else None
     if python:
