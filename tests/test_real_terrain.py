@@ -374,6 +374,10 @@ def test_a_domain_the_slidable_terrain_overruns_is_said_before_the_run():
     assert not any("bounded by the domain" in n.text() for n in notes)
     # a start on gentle ground reaches nothing
     assert not sliding_region(bowl, 27.0, (2.0, 2.0), 0.25).any()
+    with pytest.raises(ValueError, match="slope_deg has shape"):
+        sliding_region(35.0, 27.0, setup.start, 0.25)
+    with pytest.raises(ValueError, match="domain has shape"):
+        sliding_region(bowl, 27.0, setup.start, 0.25, domain=domain[1:])
 
 
 def test_random_triggers_lie_in_the_start_zone(tmp_path):
@@ -412,6 +416,10 @@ def test_arrival_sources_counts_independent_starts():
     both[20, 20] = both[26, 20] = 0.0
     assert arrival_sources(both, 0.1, reach_m=0.7) == 1
     assert arrival_sources(both, 0.1, reach_m=0.5) == 2
+    with pytest.raises(ValueError, match="arrival_time has shape"):
+        arrival_sources(one[0], 0.1)
+    with pytest.raises(ValueError, match="reach_m = -1"):
+        arrival_sources(one, 0.1, reach_m=-1.0)
 
 
 def test_weak_spots_failing_by_themselves_are_sources_of_their_own():

@@ -457,7 +457,16 @@ def arrival_sources(arrival_time: np.ndarray, dx: float, reach_m: float | None =
     nothing released."""
     from scipy import ndimage
 
-    t = np.where(np.isfinite(arrival_time), arrival_time, np.inf)
+    t = np.asarray(arrival_time, dtype=float)
+    if t.ndim != 2:
+        raise ValueError(
+            f"arrival_sources: arrival_time has shape {t.shape}; must be a map (nx, ny) [s]"
+        )
+    if not dx > 0:
+        raise ValueError(f"arrival_sources: dx = {dx}; must be > 0 m")
+    if reach_m is not None and not reach_m >= 0:
+        raise ValueError(f"arrival_sources: reach_m = {reach_m}; must be >= 0 m")
+    t = np.where(np.isfinite(t), t, np.inf)
     if not np.isfinite(t).any():
         return 0
     reach = 3.0 * dx if reach_m is None else float(reach_m)
@@ -497,10 +506,19 @@ def sliding_region(
     from scipy import ndimage
 
     psi = np.asarray(slope_deg, dtype=float)
+    if psi.ndim != 2:
+        raise ValueError(
+            f"sliding_region: slope_deg has shape {psi.shape}; must be a map (nx, ny) [deg]"
+        )
     ok = np.isfinite(psi) & (psi > float(friction_deg))
-    for mask in (cover, domain):
+    for name, mask in (("cover", cover), ("domain", domain)):
         if mask is not None:
-            ok &= np.asarray(mask, bool)
+            m = np.asarray(mask, bool)
+            if m.shape != psi.shape:
+                raise ValueError(
+                    f"sliding_region: {name} has shape {m.shape}; must be slope_deg's {psi.shape}"
+                )
+            ok &= m
     i = min(max(int(start[0] / dx), 0), psi.shape[0] - 1)
     j = min(max(int(start[1] / dx), 0), psi.shape[1] - 1)
     if not ok[i, j]:
