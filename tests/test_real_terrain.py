@@ -378,6 +378,16 @@ def test_a_domain_the_slidable_terrain_overruns_is_said_before_the_run():
         sliding_region(35.0, 27.0, setup.start, 0.25)
     with pytest.raises(ValueError, match="domain has shape"):
         sliding_region(bowl, 27.0, setup.start, 0.25, domain=domain[1:])
+    with pytest.raises(ValueError, match="start = \\(50, 10\\) m; must lie in"):
+        sliding_region(bowl, 27.0, (50.0, 10.0), 0.25)
+    with pytest.raises(ValueError, match="dx = 0"):
+        sliding_region(bowl, 27.0, setup.start, 0.0)
+    # a float mask's NaN (no data) is no snow
+    assert not sliding_region(
+        bowl, 27.0, setup.start, 0.25, cover=np.full(bowl.shape, np.nan)
+    ).any()
+    with pytest.raises(ValueError, match="released has shape"):
+        domain_edge_fraction(region[0])
 
 
 def test_random_triggers_lie_in_the_start_zone(tmp_path):
@@ -416,10 +426,20 @@ def test_arrival_sources_counts_independent_starts():
     both[20, 20] = both[26, 20] = 0.0
     assert arrival_sources(both, 0.1, reach_m=0.7) == 1
     assert arrival_sources(both, 0.1, reach_m=0.5) == 2
-    with pytest.raises(ValueError, match="arrival_time has shape"):
+    # spots failing on their own are one source only within the reach, measured between
+    # cell centres: 3 m apart with a 3 m reach, not 3.16 or 4.24 m
+    for (a, b), want in (((3, 0), 1), ((3, 1), 2), ((3, 3), 2)):
+        spots = np.full((30, 30), np.inf)
+        spots[10, 10], spots[10 + a, 10 + b] = 1.0, 2.0
+        assert arrival_sources(spots, 1.0, reach_m=3.0) == want, (a, b)
+    with pytest.raises(ValueError, match="arrival_time is float64 of shape"):
         arrival_sources(one[0], 0.1)
+    with pytest.raises(ValueError, match="arrival_time is bool"):
+        arrival_sources(np.isfinite(one), 0.1)
     with pytest.raises(ValueError, match="reach_m = -1"):
         arrival_sources(one, 0.1, reach_m=-1.0)
+    with pytest.raises(ValueError, match="reach_m = inf"):
+        arrival_sources(one, 0.1, reach_m=math.inf)
 
 
 def test_weak_spots_failing_by_themselves_are_sources_of_their_own():

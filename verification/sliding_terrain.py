@@ -114,7 +114,9 @@ def measure(
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--path", choices=(*PATHS, "all"), default="all")
+    ap.add_argument(
+        "--path", choices=(*PATHS, "all"), default="all", help="the shipped path (default: all)"
+    )
     ap.add_argument(
         "--buffers",
         type=float,
@@ -142,6 +144,12 @@ def main(argv: list[str] | None = None) -> None:
     commit, date = git_commit(), time.strftime("%Y-%m-%d")
     if args.dem is not None and args.path == "all":
         raise SystemExit("--dem needs one --path")
+    if args.dem is not None and not Path(args.dem).is_file():
+        raise SystemExit(f"--dem {args.dem}: no such file")
+    if not all(b > 0 for b in args.buffers):
+        raise SystemExit(f"--buffers {' '.join(map(str, args.buffers))}: each must be > 0 m")
+    if args.field_dx is not None and not args.field_dx > 0:
+        raise SystemExit(f"--field-dx {args.field_dx}: must be > 0 m")
     for path in PATHS if args.path == "all" else (args.path,):
         for buffer in args.buffers:
             row = measure(path, buffer, args.dem, args.field_dx)

@@ -393,8 +393,8 @@ def _domain_notes(
             f"({area:.6g} m^2, where a released slab slides) has {100 * frac:.3g} % of its "
             "boundary on the domain's edge: unless the weak layer or the slab stops the "
             "crack inside it, the release is bounded by the domain, not the terrain "
-            "(a larger terrain.buffer, or what bounds it on the ground: a snow-depth map, "
-            "a mask)",
+            "(a larger domain, e.g. a release polygon's terrain.buffer, or what bounds it "
+            "on the ground: a snow-depth map, a mask)",
             form="line",
             setup=SlopeSetup,
             category="slope",
@@ -448,40 +448,48 @@ def reach_of(dx: float, youngs_modulus: float, poisson: float, thickness: float,
 
 
 def arrival_sources(arrival_time: np.ndarray, dx: float, reach_m: float | None = None) -> int:
-    """How many sources the arrival-time map ((nx, ny) [s] on cells of ``dx`` [m]; inf or
-    NaN: never failed) has: places whose cells failed with no earlier failure within
-    ``reach_m`` [m] of them (the reach of one failure within the same front,
-    `source_reach`; None: 3 dx, the B-spline stencil's alone). Such cells closer than
-    ``reach_m`` to one another are one source. A crack that ran from the trigger alone
-    has one (the trigger); every weak spot that failed by itself adds one. 0 when
-    nothing released."""
-    from scipy import ndimage
+    """How many sources the arrival-time map ((nx, ny) failure times [s] on cells of
+    ``dx`` [m]; inf or NaN: never failed) has: places whose cells failed with no earlier
+    failure within ``reach_m`` [m] of them (the reach of one failure within the same
+    front, `source_reach`; None: 3 dx, the B-spline stencil's alone). Such cells that are
+    neighbours or no farther than ``reach_m`` apart (between cell centres) are one source.
+    A crack that ran from the trigger alone has one (the trigger); every weak spot that
+    failed by itself adds one. 0 when nothing released."""
+    from scipy import ndimage, sparse
+    from scipy.spatial import cKDTree
 
-    t = np.asarray(arrival_time, dtype=float)
-    if t.ndim != 2:
+    t = np.asarray(arrival_time)
+    if t.dtype == bool or t.ndim != 2:
         raise ValueError(
-            f"arrival_sources: arrival_time has shape {t.shape}; must be a map (nx, ny) [s]"
+            f"arrival_sources: arrival_time is {t.dtype} of shape {t.shape}; must be a map "
+            "(nx, ny) of failure times [s] (inf or NaN: never failed)"
         )
-    if not dx > 0:
-        raise ValueError(f"arrival_sources: dx = {dx}; must be > 0 m")
-    if reach_m is not None and not reach_m >= 0:
-        raise ValueError(f"arrival_sources: reach_m = {reach_m}; must be >= 0 m")
+    if not (dx > 0 and math.isfinite(dx)):
+        raise ValueError(f"arrival_sources: dx = {dx}; must be a finite number > 0 m")
+    if reach_m is not None and not (reach_m >= 0 and math.isfinite(reach_m)):
+        raise ValueError(f"arrival_sources: reach_m = {reach_m}; must be a finite number >= 0 m")
+    t = np.asarray(t, dtype=float)
     t = np.where(np.isfinite(t), t, np.inf)
     if not np.isfinite(t).any():
         return 0
     reach = 3.0 * dx if reach_m is None else float(reach_m)
-
-    def disc(radius: float) -> np.ndarray:
-        r = int(math.floor(radius / dx + 1e-9))
-        i, j = np.mgrid[-r : r + 1, -r : r + 1]
-        return np.hypot(i, j) * dx <= radius + 1e-9 * dx
-
-    earliest = ndimage.minimum_filter(t, footprint=disc(reach), mode="constant", cval=np.inf)
+    # a disc of the reach, no wider than the map
+    r = min(int(math.floor(reach / dx + 1e-9)), max(t.shape))
+    i, j = np.mgrid[-r : r + 1, -r : r + 1]
+    disc = np.hypot(i, j) * dx <= reach + 1e-9 * dx
+    earliest = ndimage.minimum_filter(t, footprint=disc, mode="constant", cval=np.inf)
     first = np.isfinite(t) & (t <= earliest)
-    # first cells within the reach of one another: one source (discs of half the reach)
-    grown = ndimage.binary_dilation(first, structure=disc(0.5 * reach))
-    groups, _ = ndimage.label(grown, structure=np.ones((3, 3), bool))
-    return int(np.unique(groups[first]).size)
+    # neighbouring first cells are one place; places whose cells lie within the reach of
+    # one another are one source (the closest cells of two places lie on their outlines)
+    places, n = ndimage.label(first, structure=np.ones((3, 3), bool))
+    if n <= 1:
+        return n
+    outline = first & ~ndimage.binary_erosion(first, structure=np.ones((3, 3), bool))
+    pts = np.argwhere(outline)
+    a, b = cKDTree(pts * dx).query_pairs(reach + 1e-9 * dx, output_type="ndarray").T
+    la, lb = places[tuple(pts[a].T)] - 1, places[tuple(pts[b].T)] - 1
+    graph = sparse.coo_matrix((np.ones(la.size), (la, lb)), shape=(n, n))
+    return int(sparse.csgraph.connected_components(graph, directed=False)[0])
 
 
 # share of the released area's boundary on the domain's edge above which a run warns
@@ -497,8 +505,9 @@ def sliding_region(
     domain: Any = None,
 ) -> np.ndarray:
     """(nx, ny) bool: the terrain a crack from ``start`` (x, y) [m] can release if nothing
-    but the terrain stops it: the snow-covered cells (``cover``, within ``domain``; None:
-    every cell) steeper than the weak layer's residual friction angle ``friction_deg``
+    but the terrain stops it: the snow-covered cells (``cover``, within ``domain``: bool
+    maps, NaN counting as False; None: every cell) steeper than the weak layer's residual
+    friction angle ``friction_deg`` [deg]
     (there a released slab slides, so the crack runs on), connected (8 neighbours) to
     the start's cell. Empty when the start's cell is not one of them. Its
     `domain_edge_fraction` before a run says whether the domain or the terrain can
@@ -510,21 +519,43 @@ def sliding_region(
         raise ValueError(
             f"sliding_region: slope_deg has shape {psi.shape}; must be a map (nx, ny) [deg]"
         )
+    if not (dx > 0 and math.isfinite(dx)):
+        raise ValueError(f"sliding_region: dx = {dx}; must be a finite number > 0 m")
+    size = (psi.shape[0] * dx, psi.shape[1] * dx)
+    try:
+        x0, y0 = (float(c) for c in start)
+    except (TypeError, ValueError):
+        raise ValueError(f"sliding_region: start = {start!r}; must be a point (x, y) [m]") from None
+    if not (0 <= x0 <= size[0] and 0 <= y0 <= size[1]):
+        raise ValueError(
+            f"sliding_region: start = ({x0:g}, {y0:g}) m; must lie in [0, {size[0]:g}] x "
+            f"[0, {size[1]:g}] m, the map"
+        )
     ok = np.isfinite(psi) & (psi > float(friction_deg))
     for name, mask in (("cover", cover), ("domain", domain)):
-        if mask is not None:
-            m = np.asarray(mask, bool)
-            if m.shape != psi.shape:
-                raise ValueError(
-                    f"sliding_region: {name} has shape {m.shape}; must be slope_deg's {psi.shape}"
-                )
+        m = _cell_mask("sliding_region", name, mask, psi.shape)
+        if m is not None:
             ok &= m
-    i = min(max(int(start[0] / dx), 0), psi.shape[0] - 1)
-    j = min(max(int(start[1] / dx), 0), psi.shape[1] - 1)
+    i = min(int(x0 / dx), psi.shape[0] - 1)
+    j = min(int(y0 / dx), psi.shape[1] - 1)
     if not ok[i, j]:
         return np.zeros_like(ok)
     labels, _ = ndimage.label(ok, structure=np.ones((3, 3), bool))
     return labels == labels[i, j]
+
+
+def _cell_mask(fn: str, name: str, mask: Any, shape: tuple[int, ...] | None = None) -> Any:
+    """A bool map of cells (NaN, no data: False), of ``shape`` where given; None as None.
+    ValueError naming ``fn`` and ``name`` for another shape."""
+    if mask is None:
+        return None
+    m = np.asarray(mask)
+    if m.dtype.kind == "f":
+        m = np.isfinite(m) & (m != 0)
+    m = m.astype(bool)
+    if shape is not None and m.shape != shape:
+        raise ValueError(f"{fn}: {name} has shape {m.shape}; must be {shape}, the map's")
+    return m
 
 
 def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None) -> float | None:
@@ -537,10 +568,15 @@ def domain_edge_fraction(released: np.ndarray, domain: np.ndarray | None = None)
     the whole rectangle). Cells inside the domain without snow (steep rock, a mask) are
     terrain, not domain edge. None when nothing released.
     """
-    rel = np.asarray(released, bool)
+    rel = _cell_mask("domain_edge_fraction", "released", released)
+    if rel.ndim != 2:
+        raise ValueError(
+            f"domain_edge_fraction: released has shape {rel.shape}; must be a map (nx, ny)"
+        )
+    dom = _cell_mask("domain_edge_fraction", "domain", domain, rel.shape)
     if not rel.any():
         return None
-    dom = np.ones_like(rel) if domain is None else np.asarray(domain, bool)
+    dom = np.ones_like(rel) if dom is None else dom
     rel_p = np.pad(rel, 1)
     out_p = ~np.pad(dom, 1, constant_values=False)  # outside the rectangle: edge
     total = edge = 0
