@@ -108,6 +108,8 @@ def measure(
         "sliding_region_m2": round(float(region.sum()) * cell),
         "sliding_region_particles": int(region.sum()),
         "sliding_region_edge_fraction": round(float(domain_edge_fraction(region, dom)), 4),
+        # the scenario's own pre-run warning (`damjax.slope.simulation.sliding_region`)
+        "warns_before_run": any("not the terrain" in n.text() for n in prep.notes),
         "wall_s": round(time.perf_counter() - t0, 1),
     }
 
