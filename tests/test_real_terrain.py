@@ -293,6 +293,31 @@ def test_coulomb_strength_follows_the_normal_stress():
     np.testing.assert_allclose(np.asarray(model.weak_layer.tau_peak), want, rtol=1e-5)
 
 
+def test_stability_with_a_friction_floor_holds_on_flat_snow(tmp_path):
+    """strength.kind = "stability" with friction_coefficient: tau_p = S tau_g + mu rho g
+    h0 cos(psi), so a flat bench keeps a strength that follows its slab's load (S tau_g
+    alone vanishes there); the crack still starts at the weakest S."""
+    doc = _plain_doc()
+    doc["strength"] = {"kind": "stability", "mean": 1.42, "cov": 0.0, "length_scale": 2.0}
+    plain = slope_fields.resolve_inputs(quiet_parse(doc))
+    doc["strength"]["friction_coefficient"] = 0.3
+    inp = slope_fields.resolve_inputs(quiet_parse(doc))
+    assert plain.wl_friction is None and inp.wl_friction == 0.3
+    assert inp.start == plain.start
+    setup = SlopeSetup(length=2.0, width=2.0, dx=0.1, duration=0.01, start=(1.0, 1.0),
+                       particles_per_cell=1, chunk_steps=5)  # fmt: skip
+    psi = np.full((20, 20), 1.0)
+    layout = make_slope_layout(SLAB, setup, 1.0)
+    model, *_ = build_slope(SLAB, setup, layout, psi, 1.0, stability=1.42, wl_friction=0.3)
+    rho_g_h = 250.0 * 9.81 * 0.5
+    want = rho_g_h * (1.42 * math.sin(math.radians(1.0)) + 0.3 * math.cos(math.radians(1.0)))
+    np.testing.assert_allclose(np.asarray(model.weak_layer.tau_peak), want, rtol=1e-5)
+    assert want > 10 * rho_g_h * 1.42 * math.sin(math.radians(1.0))  # S tau_g: 30 Pa
+    doc["strength"]["friction_coefficient"] = -0.1
+    with pytest.raises(ValueError, match="strength.friction_coefficient"):
+        quiet_parse(doc)
+
+
 # --------------------------------------------------------------------------- thickness
 
 

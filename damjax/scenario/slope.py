@@ -67,7 +67,10 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   particle's own h0 and psi; S - 1 a log-normal random
                                 #   field, S > 1: mean [-] (> 1, default 1.42, the paper's
                                 #   1000 / 703), cov [-] (default 0.1), length_scale,
-                                #   angle_deg, model, seed, field_dx (as "grf")
+                                #   angle_deg, model, seed, field_dx (as "grf");
+                                #   optional friction_coefficient [-]: adds its times
+                                #   rho g h0 cos(psi), a floor that follows the normal
+                                #   load (S tau_g vanishes on near-flat snow)
                                 # "coulomb" (2026-11-27): tau_p = cohesion [Pa] +
                                 #   friction_coefficient [-] x rho g h0 cos(psi) (both
                                 #   required); std [Pa] > 0 makes the cohesion a random
@@ -208,6 +211,8 @@ _STRENGTH_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "stability": {
         "mean": ("float", (lambda v: v > 1 and math.isfinite(v), "(1, inf)"), ""),
         "cov": ("float", _NONNEG, ""),
+        # optional: + friction_coefficient x rho g h0 cos(psi), a floor on near-flat snow
+        "friction_coefficient": ("float", _NONNEG, ""),
     },
     # "coulomb": tau_p = cohesion + friction_coefficient x rho g h0 cos(psi); the cohesion
     # a constant or (std > 0) a Gaussian random field as "grf"'s

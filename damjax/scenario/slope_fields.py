@@ -468,6 +468,8 @@ def _resolve(scn: Any) -> SlopeInputs:
             )
         except ValueError as exc:
             raise _FieldProblem(f"strength.{exc}") from None
+        if "friction_coefficient" in st:  # a floor that follows the normal load
+            wl_friction = float(st["friction_coefficient"])
         tau = stability * tau_g
     else:
         try:
