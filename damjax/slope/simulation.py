@@ -506,12 +506,12 @@ def sliding_region(
 ) -> np.ndarray:
     """(nx, ny) bool: the terrain a crack from ``start`` (x, y) [m] can release if nothing
     but the terrain stops it: the snow-covered cells (``cover``, within ``domain``: bool
-    maps, NaN counting as False; None: every cell) steeper than the weak layer's residual
-    friction angle ``friction_deg`` [deg]
-    (there a released slab slides, so the crack runs on), connected (8 neighbours) to
-    the start's cell. Empty when the start's cell is not one of them. Its
-    `domain_edge_fraction` before a run says whether the domain or the terrain can
-    bound the release."""
+    maps, NaN counting as False; None: every cell) of ``slope_deg`` (nx, ny) [deg] on
+    cells of ``dx`` [m] steeper than the weak layer's residual friction angle
+    ``friction_deg`` [deg] (there a released slab slides, so the crack runs on),
+    connected (8 neighbours) to the start's cell. Empty when the start's cell is not one
+    of them. Its `domain_edge_fraction` before a run says whether the domain or the
+    terrain can bound the release."""
     from scipy import ndimage
 
     psi = np.asarray(slope_deg, dtype=float)
