@@ -339,11 +339,11 @@ def _model_and_state(
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
     n = saw_coord.shape[0]
     dim = len(grid_shape)
+    # made in this order (the weak layer's K and u_res, grid, slab, fracture, gravity, weak
+    # layer, saw): the order of the operations is the order of a traced parameter's uses,
+    # part of a gradient's bits (`preload`)
     K = f(params.wl_shear_modulus) / f(params.wl_thickness)
     _, u_res = weak_layer.critical_displacements(tau_peak, K, f(params.softening))
-    # made in this order (grid, slab, fracture, gravity, weak layer, saw): the order of the
-    # operations is the order of a traced parameter's uses, part of a gradient's bits
-    # (`preload`)
     grid = Grid(
         grid_shape=grid_shape,
         dx=float(setup.dx),

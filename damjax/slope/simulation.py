@@ -381,7 +381,7 @@ def _domain_notes(
     the domain's edge (said before the run, not after it)."""
     phi = float(params.friction_deg)
     region = sliding_region(slope_deg, phi, setup.start, setup.dx, cover, domain)
-    frac = domain_edge_fraction(region, domain) if region.any() else None
+    frac = domain_edge_fraction(region, domain)  # None when the region is empty
     if frac is None or frac <= DOMAIN_EDGE_WARN:
         return []
     area = float(region.sum()) * setup.dx**2
