@@ -417,6 +417,70 @@ def real_path_member() -> None:
         domain_edge_fraction=s.get("domain_edge_fraction"),
         dry_run=dry,
     )
+    # the same steps of the three, alternated in rounds: a shared machine's speed drifts
+    # over a 10-minute run, and a 2 s slope, a 0.2 s one and a 4 s member run at different
+    # times; medians of alternated chunks compare like with like
+    from damjax.scenario import prepared
+    from damjax.slope import simulation
+
+    models = {
+        "slope_fig12a": _slope_model(fig12a),
+        "slope_fig12a_wide": _slope_model(wide),
+        "member": simulation.build(prepared(scn))[:2],
+    }
+    ns_alt = alternated_ns_per_particle_step(models, 5 if dry else 100, 2 if dry else 5)
+    emit(
+        case="real_path_member_alternated",
+        path=path,
+        steps_per_chunk=5 if dry else 100,
+        **{f"{k}_n_particles": int(np.shape(m[1].u)[-1]) for k, m in models.items()},
+        **{f"{k}_ns_per_particle_step": round(v, 1) for k, v in ns_alt.items()},
+        member_vs_fig12a=round(ns_alt["member"] / ns_alt["slope_fig12a"], 2),
+        member_vs_fig12a_wide=round(ns_alt["member"] / ns_alt["slope_fig12a_wide"], 2),
+        wide_vs_fig12a=round(ns_alt["slope_fig12a_wide"] / ns_alt["slope_fig12a"], 2),
+        dry_run=dry,
+    )
+
+
+def _slope_model(case) -> tuple:
+    """Model and initial state of a generic slope (`damjax.slope.generic`, the Fig. 12 slab)."""
+    from damjax.slope import generic, simulation
+
+    psi, tau = generic.slope_field(case), generic.strength_field(case)
+    start = case.start if case.start is not None else generic.weak_spot(case, tau)
+    prep = simulation.prepare(
+        generic.fig12_params(), generic.setup_of(case, start), slope_deg=psi, tau_peak=tau
+    )
+    return simulation.build(prep)[:2]
+
+
+def alternated_ns_per_particle_step(models: dict, n_steps: int, rounds: int) -> dict:
+    """Median cost per particle-step [ns] of chunks of ``n_steps`` steps of each (model,
+    state) in ``models``, alternated for ``rounds`` rounds (the order flips every round);
+    each run goes on from where its last chunk ended, so the chunks see the run's own
+    release. The smallest gets as many chunks a round as give it about the largest's
+    particle-steps."""
+    import statistics
+
+    import jax
+
+    from damjax.core import loop
+
+    n_p = {k: int(np.shape(st.u)[-1]) for k, (_, st) in models.items()}
+    reps = {k: max(1, round(max(n_p.values()) / v)) for k, v in n_p.items()}
+    exes, states = {}, {}
+    for k, (model, state) in models.items():
+        exes[k] = loop.compile_chunk(model, state, n_steps)[0]
+        states[k] = jax.block_until_ready(exes[k](model, state)[0])  # warm; donates its state
+    ns: dict = {k: [] for k in models}
+    for r in range(rounds):
+        for k in list(models) if r % 2 == 0 else list(models)[::-1]:
+            t0 = time.perf_counter()
+            for _ in range(reps[k]):
+                states[k] = exes[k](models[k][0], states[k])[0]
+            jax.block_until_ready(states[k])
+            ns[k].append((time.perf_counter() - t0) / (reps[k] * n_steps * n_p[k]) * 1e9)
+    return {k: statistics.median(v) for k, v in ns.items()}
 
 
 def _run(name: str) -> None:
