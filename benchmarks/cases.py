@@ -363,7 +363,9 @@ def real_path_member() -> None:
     profile and dx, as wide as gives the path's particle count, the first 0.2 s): cost per
     particle-step [ns]; then the member: the wall time of `scenario.slope_fields.simulate`
     (terrain, snow cover and fields, build, compile, every step, the maps and summary), its
-    particles and steps, and its cost per particle-step against both slopes'. Toy sizes
+    particles and steps, and its cost per particle-step against both slopes'. Then
+    ``real_path_member_alternated``: chunks of 100 steps of the three taken in turn for 5
+    rounds (`alternated_ns_per_particle_step`), the medians and their ratios. Toy sizes
     under --dry-run: the real-path toy polygon, 0.1 s."""
     import dataclasses
     import tempfile
