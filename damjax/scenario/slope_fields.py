@@ -432,11 +432,8 @@ def _resolve(scn: Any) -> SlopeInputs:
                 mean_at=float(g["mean_at"]),
                 trend=float(g["trend"]),
                 std=float(g["std"]),
-                length_scale=g["length_scale"],
-                angle_deg=float(g["angle_deg"]),
-                model=g["model"],
-                field_dx=None if "field_dx" not in st else float(st["field_dx"]),
                 trend_deg=float(g["trend_deg"]),
+                **_correlation(g, st),
             )
         except ValueError as exc:  # field_dx coarser than the correlation allows
             raise _FieldProblem(f"strength.{exc}") from None
@@ -461,10 +458,7 @@ def _resolve(scn: Any) -> SlopeInputs:
                 setup.dx,
                 mean=float(g["mean"]),
                 cov=float(g["cov"]),
-                length_scale=g["length_scale"],
-                angle_deg=float(g["angle_deg"]),
-                model=g["model"],
-                field_dx=None if "field_dx" not in st else float(st["field_dx"]),
+                **_correlation(g, st),
             )
         except ValueError as exc:
             raise _FieldProblem(f"strength.{exc}") from None
@@ -585,6 +579,17 @@ def _snow_cover(
     if domain is not None:
         cov &= domain
     return thickness, cov
+
+
+def _correlation(g: dict, st: dict) -> dict[str, Any]:
+    """The random field's correlation keys of a strength table ``st`` (``g``: with its
+    defaults), as `damjax.fields.plateau_trend_field` and `stability_field` take them."""
+    return dict(
+        length_scale=g["length_scale"],
+        angle_deg=float(g["angle_deg"]),
+        model=g["model"],
+        field_dx=None if "field_dx" not in st else float(st["field_dx"]),
+    )
 
 
 def cell_shape(setup: Any) -> tuple[int, int]:
