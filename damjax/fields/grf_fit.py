@@ -19,6 +19,8 @@ from damjax.fields.grf import _MODELS, CovarianceModel, correlation
 # Smallest fitted nugget (noise-to-field variance ratio) of `fit_grf`: a noise std of 1e-4
 # of the field's, which keeps the correlation matrix of a smooth field well conditioned.
 _NUGGET_FLOOR = 1e-8
+# the fitted fields that are `grf`'s keyword arguments (`GRFFit.grf_kwargs`)
+_GRF_KEYS = ("mean", "std", "length_scale", "angle_deg", "model", "trend")
 
 
 # --------------------------------------------------------------------------------------
@@ -62,14 +64,7 @@ class GRFFit:
 
     def grf_kwargs(self) -> dict:
         """Keyword arguments of `grf` that reproduce the fitted field (without the nugget)."""
-        return dict(
-            mean=self.mean,
-            std=self.std,
-            length_scale=self.length_scale,
-            angle_deg=self.angle_deg,
-            model=self.model,
-            trend=self.trend,
-        )
+        return {k: getattr(self, k) for k in _GRF_KEYS}
 
 
 def fit_grf(
