@@ -395,6 +395,14 @@ class PSTParams(eqx.Module):
 FALL_DEG_SPEC = Spec(
     "deg", "fall-line direction relative to -x", valid=Range(-INF, INF), name="fall_deg"
 )
+# a slope run's map of slope angles: flat cells (0 deg) are terrain too (a valley floor, a
+# bench, a lake), where the slab lies but cannot slide; the parameter slope_deg stays (0, 90)
+SLOPE_MAP_SPEC = Spec(
+    "deg",
+    "local slope angle psi of a cell (0: flat ground, where the slab cannot slide)",
+    valid=Range(0.0, 90.0, lo_in=True),
+    name="slope_deg",
+)
 # the snow cover and the weak layer's own load on a slope (`damjax.simulate_slope`'s
 # thickness, stability, wl_friction, cover and domain; 2026-11-27): a thickness map is
 # checked against the parameter thickness, the others against these

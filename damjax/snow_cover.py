@@ -107,29 +107,35 @@ def fill_from_nearest(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
 
 
 def sample_raster(
-    file: str | os.PathLike[str], px: np.ndarray, py: np.ndarray, *, nearest: bool = False
+    file: Any, px: np.ndarray, py: np.ndarray, *, nearest: bool = False
 ) -> np.ndarray:
-    """Values of a raster (GeoTIFF, ESRI ASCII, NetCDF: `damjax.terrain.load_dem`'s
-    formats) at map points px, py [m], in the raster's own coordinates (its CRS must be
-    the DEM's). Bilinear, or the nearest pixel (``nearest``: masks); NaN at nodata and
-    outside the raster."""
+    """Values of a raster (a file in `damjax.terrain.load_dem`'s formats: GeoTIFF, ESRI
+    ASCII, NetCDF; or a loaded `damjax.terrain.Terrain`) at map points px, py [m], in the
+    raster's own coordinates (its CRS must be the DEM's). Bilinear, or the nearest pixel
+    (``nearest``: masks); NaN at nodata and outside the raster (`raster_covers`)."""
     from damjax.terrain import load_dem
 
-    r = load_dem(file)
+    r = load_dem(file) if isinstance(file, (str, os.PathLike)) else file
     px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
-    hx, hy = r.dx, r.dy
-    inside = (
-        (px >= r.x[0] - 0.5 * hx)
-        & (px <= r.x[-1] + 0.5 * hx)
-        & (py >= r.y[0] - 0.5 * hy)
-        & (py <= r.y[-1] + 0.5 * hy)
-    )
+    inside = raster_covers(r, px, py)
     qx = np.clip(px, r.x[0], r.x[-1])
     qy = np.clip(py, r.y[0], r.y[-1])
     if nearest:
-        i = np.clip(np.rint((qx - r.x[0]) / hx).astype(int), 0, r.x.size - 1)
-        j = np.clip(np.rint((qy - r.y[0]) / hy).astype(int), 0, r.y.size - 1)
+        i = np.clip(np.rint((qx - r.x[0]) / r.dx).astype(int), 0, r.x.size - 1)
+        j = np.clip(np.rint((qy - r.y[0]) / r.dy).astype(int), 0, r.y.size - 1)
         v = r.z[i, j]
     else:
         v = r.sample(qx, qy)
     return np.where(inside, v, math.nan)
+
+
+def raster_covers(r: Any, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+    """Which map points px, py [m] lie within a loaded raster's pixels (a
+    `damjax.terrain.Terrain`: its nodes are the pixel centres)."""
+    px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
+    return (
+        (px >= r.x[0] - 0.5 * r.dx)
+        & (px <= r.x[-1] + 0.5 * r.dx)
+        & (py >= r.y[0] - 0.5 * r.dy)
+        & (py <= r.y[-1] + 0.5 * r.dy)
+    )

@@ -35,6 +35,7 @@ from damjax.params import (
     DOMAIN_SPEC,
     FALL_DEG_SPEC,
     PROFILE_FIELDS,
+    SLOPE_MAP_SPEC,
     STABILITY_SPEC,
     WL_FRICTION_SPEC,
     PSTParams,
@@ -390,7 +391,7 @@ def map_specs() -> dict[str, Spec]:
     of the stability ratio and of the weak layer's friction coefficient."""
     table = specs(PSTParams)
     return {
-        "slope_deg": table["slope_deg"],
+        "slope_deg": SLOPE_MAP_SPEC,
         "tau_peak": table["tau_peak"],
         "fall_deg": FALL_DEG_SPEC,
         "thickness": table["thickness"],
@@ -411,14 +412,17 @@ def slope_problems(
     slope: Any = None,
     tau: Any = None,
     fall: Any = 0.0,
+    *,
+    defer_lambda: bool = False,
     **snow: Any,
 ) -> list[Problem]:
     """The problems of a slope run's input (`damjax.simulate_slope`): the values, the
-    grid, dx against Lambda and, where the maps are given (``slope`` [deg], ``tau`` [Pa],
-    ``fall`` [deg]: scalars or (nx, ny) arrays at the cell centres; ``snow``: the snow
-    cover's ``thickness`` [m], ``stability`` [-], ``wl_friction`` [-], ``cover`` and
-    ``domain``), the start and the maps (`slope_field_problems`). A given slope map
-    replaces params.slope_deg."""
+    grid, dx against Lambda (of params.thickness; with a thickness map, at its thinnest
+    slab; ``defer_lambda``: not yet, the maps are read later) and, where the maps are
+    given (``slope`` [deg], ``tau`` [Pa], ``fall`` [deg]: scalars or (nx, ny) arrays at
+    the cell centres; ``snow``: the snow cover's ``thickness`` [m], ``stability`` [-],
+    ``wl_friction`` [-], ``cover`` and ``domain``), the start and the maps
+    (`slope_field_problems`). A given slope map replaces params.slope_deg."""
     out = param_problems(params, skip=["slope_deg"] if slope is not None else [])
     setup_out = _fields(setup, SlopeSetup)
     if setup_out:  # the checks below need a valid grid
@@ -428,9 +432,10 @@ def slope_problems(
             out.append(_cells_problem(name, setup))
     if out:
         return out
-    problem = lambda_problem(setup.dx, float(theory.elastic_length(params)), SlopeSetup)
-    if problem is not None:
-        return [problem]
+    if not defer_lambda and snow.get("thickness") is None:
+        problem = lambda_problem(setup.dx, float(theory.elastic_length(params)), SlopeSetup)
+        if problem is not None:
+            return [problem]
     if slope is None and tau is None and all(v is None for v in snow.values()):
         return []
     return slope_field_problems(setup, slope, tau, fall, params=params, **snow)
@@ -479,7 +484,10 @@ def slope_field_problems(
             continue
         spec = map_specs()[name]
         snow_map = name in SNOW_MAPS
+        kind = getattr(np.asarray(arr) if not is_traced(arr) else arr, "dtype", None)
         try:
+            if kind is None or kind.kind not in "iuf":  # no bools, strings or objects
+                raise TypeError(name)
             a = np.asarray(arr, dtype=float)
         except (TypeError, ValueError):
             reason = "must be a number or a 2D array (nx, ny) of numbers"
@@ -520,6 +528,20 @@ def slope_field_problems(
         else:
             continue
         out.append(Problem(name, a.shape, reason, form="map", setup=SlopeSetup))
+    if not out and cover is not None and np.ndim(cover) == 2:
+        # the crack starts in the slab: a start on a cell without snow saws nothing
+        i = min(max(int(x0 / setup.dx), 0), cells[0] - 1)
+        j = min(max(int(y0 / setup.dx), 0), cells[1] - 1)
+        if not bool(np.asarray(cover)[i, j]):
+            out.append(
+                Problem(
+                    "start",
+                    setup.start,
+                    f"lies on a cell without snow (cell ({i}, {j}) of the cover): the crack "
+                    "must start in the slab; move it onto snow-covered ground",
+                    setup=SlopeSetup,
+                )
+            )
     if out or params is None:
         return out
     return out + _snow_cover_problems(params, setup, thickness, cover)
@@ -827,7 +849,8 @@ def ensure_x64(dtype: str) -> None:
     warnings.warn(
         "dtype = 'float64': damjax switched jax_enable_x64 on for this process (JAX's "
         "default float is now float64 in your code too); set it yourself at start-up, "
-        "jax.config.update('jax_enable_x64', True), to silence this",
+        "jax.config.update('jax_enable_x64', True), or in the environment, "
+        "JAX_ENABLE_X64=1 (the command line), to silence this",
         stacklevel=4,
     )
 

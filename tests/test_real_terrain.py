@@ -165,6 +165,92 @@ def test_snow_key_errors_name_the_key(tmp_path):
         quiet_parse(doc, base_dir=tmp_path)
 
 
+def _flat_top_dem(tmp_path):
+    """An ESRI ASCII DEM rising at 35 deg along +x up to x = 20 m and flat above it
+    (a bench: slope exactly 0), 1 m nodes."""
+    from damjax import terrain
+
+    x, y = np.arange(41, dtype=float), np.arange(31, dtype=float)
+    z = np.repeat((np.minimum(x, 20.0) * math.tan(math.radians(35.0)))[:, None], y.size, axis=1)
+    terrain.save_esri_ascii(terrain.Terrain(x, y, z), tmp_path / "bench.asc")
+    return tmp_path / "bench.asc"
+
+
+def test_flat_cells_hold_a_slab_and_a_stability_layer_needs_a_floor_there(tmp_path):
+    """Flat ground (0 deg) is terrain too: its cells hold a slab that cannot slide. A
+    stability-ratio weak layer has no strength there (S rho g h sin 0 = 0): the scenario
+    says so and names the remedies; with a friction floor, or a coulomb layer, it loads."""
+    dem = _flat_top_dem(tmp_path)
+    doc = _dem_doc(dem)
+    doc["setup"].update(length=36.0, width=18.0, dx=0.3, start=[6.0, 9.0])
+    doc["params"]["thickness"] = 0.5
+    remedies = r"cells are flat \(0 deg\).*friction_coefficient.*snow.mask"
+    with pytest.raises(ValueError, match=remedies):
+        quiet_parse(doc, base_dir=tmp_path)
+    doc["strength"]["friction_coefficient"] = 0.3
+    inp = slope_fields.resolve_inputs(quiet_parse(doc, base_dir=tmp_path))
+    flat = np.asarray(inp.slope_deg) < 1e-9
+    assert flat.any() and (~flat).any() and inp.cover is None  # a slab on the bench too
+    rho_g_h = 250.0 * 9.81 * 0.5
+    np.testing.assert_allclose(inp.tau_peak[flat], 0.3 * rho_g_h, rtol=1e-9)
+    doc["strength"] = {"kind": "coulomb", "cohesion": 500.0, "friction_coefficient": 0.3}
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    res = quiet(slope_fields.simulate, scn)
+    assert res.summary["fault"] is None and res.summary["initial_failure_area_m2"] == 0.0
+
+
+def test_a_start_on_a_cell_without_snow_is_refused():
+    """The crack starts in the slab: a start on a cell without snow is an input error
+    naming the start, not a failure after the run."""
+    setup = SlopeSetup(length=4.0, width=4.0, dx=0.2, duration=0.01, start=(3.0, 3.0))
+    cover = np.zeros((20, 20), bool)
+    cover[:8, :8] = True
+    with pytest.raises(ValueError, match=r"start = \(3.0, 3.0\): lies on a cell without snow"):
+        quiet(simulate_slope, SLAB, setup, slope_deg=38.0, stability=1.4, cover=cover)
+    setup = dataclasses.replace(setup, start=(1.0, 1.0), duration=0.002)
+    with pytest.warns(UserWarning, match="tau_peak is not used with stability"):
+        simulate_slope(SLAB, setup, slope_deg=38.0, tau_peak=900.0, stability=1.4)
+
+
+def test_snow_rasters_are_checked_where_they_are_read(tmp_path):
+    """A snow raster must cover the domain, hold no negative depth and share the DEM's
+    CRS; snow.min_thickness is > 0 and holds for a uniform slab too; the start zone's
+    lower edge is below its upper one; terrain.buffer needs a polygon."""
+    from damjax import terrain
+
+    dem = _tilted_dem(tmp_path)
+    x, y = np.arange(61, dtype=float), np.arange(41, dtype=float)
+    small = terrain.Terrain(x[:20], y, np.full((20, 41), 0.6))
+    terrain.save_esri_ascii(small, tmp_path / "hs_small.asc")
+    neg = np.full((61, 41), 0.6)
+    neg[:, 20:] = -0.5
+    terrain.save_esri_ascii(terrain.Terrain(x, y, neg), tmp_path / "hs_neg.asc")
+    doc = _dem_doc(dem, max_slope_deg=60.0)
+    for snow, match in (
+        ({"kind": "depth_map", "file": "hs_small.asc"}, r"snow.file = .*hs_small.asc.*covers "),
+        ({"kind": "depth_map", "file": "hs_neg.asc"}, r"snow depths down to -0.5 m"),
+        ({"kind": "depth_map", "file": "nope.asc"}, r"snow.file = .*nope.asc.*no such file"),
+        ({"mask": "hs_small.asc"}, r"snow.mask = .*hs_small.asc.*covers "),
+        ({"min_thickness": 0.0}, r"snow.min_thickness = 0.0: must be a number in \(0, inf\)"),
+        ({"min_thickness": 0.5}, "no cell of the domain holds a slab"),  # uniform 0.3 m
+        ({"start_min_slope_deg": 65.0}, "must be at most snow.max_slope_deg = 60.0"),
+    ):
+        doc["snow"] = {"kind": "uniform", "max_slope_deg": 60.0, **snow}
+        with pytest.raises(ValueError, match=match):
+            quiet_parse(doc, base_dir=tmp_path)
+    doc["snow"] = {"kind": "uniform"}
+    doc["terrain"]["buffer"] = 50.0
+    with pytest.raises(ValueError, match="terrain.buffer: the terrain around a release polygon"):
+        quiet_parse(doc, base_dir=tmp_path)
+    pyproj = pytest.importorskip("pyproj")
+    del doc["terrain"]["buffer"]
+    (tmp_path / "dem.prj").write_text(pyproj.CRS.from_epsg(2056).to_wkt())
+    (tmp_path / "hs.prj").write_text(pyproj.CRS.from_epsg(21781).to_wkt())
+    doc["snow"] = {"kind": "depth_map", "file": "hs.asc"}
+    with pytest.raises(ValueError, match=r"snow.file = .*hs.asc.*CRS .* differs from the DEM"):
+        quiet_parse(doc, base_dir=tmp_path)
+
+
 # --------------------------------------------------------------------------- bitwise
 
 

@@ -97,7 +97,7 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 # "depth_map": file = raster of the vertical snow depth HS
                                 #   [m] (.tif, .asc, .nc; the DEM's CRS): h0 = HS cos(psi)
     max_slope_deg = 60.0        # [deg], (0, 90]: no slab on steeper cells
-    min_thickness = 0.1         # [m], >= 0: no slab on thinner cells
+    min_thickness = 0.1         # [m], > 0: no slab on thinner cells (any kind)
     start_min_slope_deg = 28.0  # [deg]: the start zone is the snow in this..max_slope_deg
     mask = "forest.tif"         # optional raster (the DEM's CRS): nonzero cells hold no
                                 # snow (forest, rock). Cells without snow hold no particle
@@ -122,7 +122,7 @@ from typing import Any
 
 import numpy as np
 
-from damjax import theory
+from damjax import snow_cover, theory
 from damjax.params import PSTParams, PSTSetup, SlopeSetup, specs
 from damjax.scenario import slope_fields
 from damjax.scenario.schema import (
@@ -250,7 +250,7 @@ _SNOW_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
 }
 _SNOW_COMMON = {
     "max_slope_deg": ("float", _ANGLE_TO_90, "deg"),  # no slab steeper (default 60)
-    "min_thickness": ("float", _NONNEG, "m"),  # no slab thinner (default 0.1)
+    "min_thickness": ("float", _POS, "m"),  # no slab thinner (default 0.1)
     "start_min_slope_deg": ("float", _ANGLE, "deg"),  # start zone's lower edge (28)
     "mask": ("str", None, ""),  # raster in the DEM's CRS: nonzero cells hold no snow
 }
@@ -366,6 +366,7 @@ def _place_release(
     svals: dict[str, Any],
     problems: list[str],
     notes: list[str],
+    thickness_from_snow: bool = False,
 ) -> None:
     """``terrain.release``: the polygon (plus terrain.margin) sets the release area's
     origin, up-slope axis, length and width, and the slab thickness (its attribute)."""
@@ -387,7 +388,9 @@ def _place_release(
         msg = " ".join(str(exc).split())
         problems.append(f"terrain.file = {_fmt(terrain['file'])}: {msg}")
         return
-    thickness_given = "thickness" in pgiven
+    # the slab's thickness from the [snow] table (a depth map, or a reference thickness
+    # corrected for the slope), not from the polygon's attribute
+    thickness_given = "thickness" in pgiven or thickness_from_snow
     field = terrain.get("thickness_field", "thickness")
     if "buffer" in terrain and "margin" in terrain:
         problems.append(
@@ -486,7 +489,11 @@ def check(
     notes: list[str] = []
     _snow_strength_rules(terrain, strength, snow, base_dir, problems)
     if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
-        _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes)
+        from_snow = snow is not None and (
+            snow["kind"] == "depth_map"
+            or (snow["kind"] == "slope_corrected" and "reference_thickness" in snow)
+        )
+        _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes, from_snow)
     # given away from the default: a file written by `Scenario.to_toml` lists every field
     ignored = [
         k for k in PST_ONLY_PARAMS if k in pgiven and pvals.get(k) != getattr(PSTParams(), k)
@@ -545,6 +552,12 @@ def check(
     except InputError as exc:
         bad = pbad | sbad  # their kind was reported: the checks saw the default
         reported = [p for p in exc.problems if p.field not in bad]
+        raw_terrain = data.get("terrain")
+        polygon = isinstance(raw_terrain, dict) and "release" in raw_terrain
+        if n0 and polygon and "thickness" not in pgiven:
+            # the polygon that gives the slab's thickness was not read: dx was checked
+            # against Lambda of the default thickness, not the slab's
+            reported = [p for p in reported if not (p.field == "dx" and "Lambda" in p.reason)]
         problems += _lines(reported, given, terrain or {"kind": "plane"}, "start" in svals)
         return None, []
     if problems:
@@ -653,6 +666,18 @@ def _snow_strength_rules(
                 snow[key] = str(_resolve_path(snow[key], base_dir))
         if snow["kind"] == "depth_map" and "file" not in snow:
             problems.append("snow.file: missing (a raster of the vertical snow depth HS [m])")
+        lo = snow.get("start_min_slope_deg", snow_cover.START_MIN_SLOPE_DEG)
+        hi = snow.get("max_slope_deg", snow_cover.MAX_SLOPE_DEG)
+        if isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and lo > hi:
+            problems.append(
+                f"snow.start_min_slope_deg = {_fmt(lo)}: must be at most snow.max_slope_deg "
+                f"= {_fmt(hi)} (the start zone is the snow between them)"
+            )
+    if terrain is not None and "buffer" in terrain and "release" not in terrain:
+        problems.append(
+            "terrain.buffer: the terrain around a release polygon; give terrain.release too "
+            "(without a polygon the domain is setup.length x setup.width from terrain.origin)"
+        )
     if strength is not None:
         if strength["kind"] == "coulomb":
             for key in ("cohesion", "friction_coefficient"):

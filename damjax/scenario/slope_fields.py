@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import warnings
 from typing import Any
 
@@ -185,8 +186,9 @@ class SlopeInputs:
         slope_deg, fall_deg: slope angle and fall direction [deg] (scalars for a plane).
         tau_peak: weak-layer strength [Pa] (nx, ny): the absolute strength of the
             "constant", "grf" and "map" kinds, the cohesion of "coulomb", and, for
-            "stability", S rho g h0 sin(psi) on the cells (the particles take S times their
-            own load: `damjax.core.model.slope_particle_fields`).
+            "stability", S rho g h0 sin(psi) (plus mu rho g h0 cos(psi) with a
+            ``friction_coefficient`` mu) on the cells (the particles take S times their own
+            load: `damjax.core.model.slope_particle_fields`).
         start: the crack start (x, y) [m].
         thickness: slab thickness h0 normal to the slope [m] (nx, ny); None: uniform
             ``params.thickness`` (the model of earlier versions).
@@ -462,9 +464,20 @@ def _resolve(scn: Any) -> SlopeInputs:
             )
         except ValueError as exc:
             raise _FieldProblem(f"strength.{exc}") from None
+        tau = stability * tau_g
         if "friction_coefficient" in st:  # a floor that follows the normal load
             wl_friction = float(st["friction_coefficient"])
-        tau = stability * tau_g
+            tau = tau + wl_friction * float(params.density) * G_ACC * h_cells * np.cos(
+                np.radians(slope)
+            )
+        flat = (tau <= 0) if cover is None else (tau <= 0) & cover
+        if np.any(flat):
+            raise _FieldProblem(
+                f'strength.kind = "stability": {int(np.sum(flat))} snow-covered cells are '
+                "flat (0 deg), where S tau_g = S rho g h0 sin(psi) gives the weak layer no "
+                "strength; give strength.friction_coefficient (a floor mu rho g h0 cos(psi) "
+                "that follows the slab's weight) or leave them out with snow.mask"
+            )
     else:
         try:
             kw = {"variable": st["variable"]} if "variable" in st else {}
@@ -500,9 +513,11 @@ def _resolve(scn: Any) -> SlopeInputs:
     if st["kind"] == "stability":
         weakness = stability
     elif st["kind"] == "coulomb":
-        weakness = (
-            tau + wl_friction * float(params.density) * G_ACC * h_cells * np.cos(np.radians(slope))
-        ) / tau_g
+        tau_c = tau + wl_friction * float(params.density) * G_ACC * h_cells * np.cos(
+            np.radians(slope)
+        )
+        with np.errstate(divide="ignore", invalid="ignore"):  # flat cells: never the weakest
+            weakness = np.where(tau_g > 0, tau_c / np.where(tau_g > 0, tau_g, 1.0), np.inf)
     snow_cells = np.ones((x.size, y.size), bool) if cover is None else cover
     start = tuple(float(c) for c in setup.start)
     if st.get("trigger") == "random":
@@ -563,22 +578,82 @@ def _snow_cover(
         d0 = float(sn.get("reference_thickness", scn.params.thickness))
         thickness = d0 * snow_cover.slope_correction(psi)
     elif kind == "depth_map":
-        hs = snow_cover.sample_raster(sn["file"], map_x, map_y)
+        hs = _snow_raster(scn, "file", map_x, map_y, domain)
+        negative = np.isfinite(hs) & (hs < 0)
+        if domain is not None:
+            negative &= domain
+        if np.any(negative):
+            raise _FieldProblem(
+                f"snow.file = {os.path.basename(sn['file'])!r}: snow depths down to "
+                f"{np.min(hs[negative]):.3g} m on {int(np.sum(negative))} cells of the "
+                "domain: must be >= 0 m (no snow: 0 or nodata)"
+            )
         thickness = snow_cover.depth_to_thickness(hs, psi)
     mask = None
     if "mask" in sn:
-        m = snow_cover.sample_raster(sn["mask"], map_x, map_y, nearest=True)
+        m = _snow_raster(scn, "mask", map_x, map_y, domain, nearest=True)
         mask = np.isfinite(m) & (m != 0)
+    # a uniform slab thinner than snow.min_thickness is no slab either
+    h_min_test = thickness
+    if thickness is None:
+        h_min_test = np.full(psi.shape, float(scn.params.thickness))
     cov = snow_cover.cover(
         psi,
         max_slope_deg=float(sn["max_slope_deg"]),
         mask=mask,
-        thickness=thickness,
+        thickness=h_min_test,
         min_thickness=float(sn["min_thickness"]),
     )
     if domain is not None:
         cov &= domain
     return thickness, cov
+
+
+def _snow_raster(
+    scn: Any, key: str, map_x: Any, map_y: Any, domain: Any, *, nearest: bool = False
+) -> np.ndarray:
+    """The [snow] raster ``snow.<key>`` (a depth map or a mask) at the cells' map points
+    (`damjax.snow_cover.sample_raster`), once it is read, in the DEM's CRS and covering
+    every cell of the domain (nodata inside it: no snow; outside it: an error)."""
+    from damjax import terrain
+
+    file = scn.snow[key]
+    name = repr(os.path.basename(str(file)))  # as a polygon's (the path is resolved)
+    if map_x is None or map_y is None:
+        raise _FieldProblem(f'snow.{key}: a raster needs a DEM terrain (terrain.kind = "dem")')
+    try:
+        r = terrain.load_dem(file)
+    except FileNotFoundError:
+        raise _FieldProblem(f"snow.{key} = {name}: no such file") from None
+    except (OSError, ValueError, ImportError, KeyError) as exc:
+        msg = " ".join(str(exc).split())
+        raise _FieldProblem(f"snow.{key} = {name}: {msg}") from None
+    try:
+        from damjax.release_area import _same_crs, dem_crs
+
+        crs, dcrs = dem_crs(file), dem_crs(scn.terrain["file"])
+        if crs is not None and dcrs is not None and not _same_crs(crs, dcrs):
+            import pyproj
+
+            raise _FieldProblem(
+                f"snow.{key} = {name}: CRS {pyproj.CRS(crs).name!r} differs from the "
+                f"DEM's (terrain.file, {pyproj.CRS(dcrs).name!r}); reproject one of them"
+            )
+    except ImportError:  # without the GIS extra no file names a CRS damjax can read
+        pass
+    cells = np.ones(np.shape(map_x), bool) if domain is None else np.asarray(domain, bool)
+    out = cells & ~snow_cover.raster_covers(r, map_x, map_y)
+    if np.any(out):
+        raise _FieldProblem(
+            f"snow.{key} = {name}: covers {int(np.sum(cells) - np.sum(out))} of the "
+            f"domain's {int(np.sum(cells))} cells (its extent x [{r.x[0] - 0.5 * r.dx:.1f}, "
+            f"{r.x[-1] + 0.5 * r.dx:.1f}], y [{r.y[0] - 0.5 * r.dy:.1f}, "
+            f"{r.y[-1] + 0.5 * r.dy:.1f}] m; the domain's x [{np.min(map_x[cells]):.1f}, "
+            f"{np.max(map_x[cells]):.1f}], y [{np.min(map_y[cells]):.1f}, "
+            f"{np.max(map_y[cells]):.1f}] m): it must cover the whole domain (nodata inside "
+            "it: no snow there)"
+        )
+    return snow_cover.sample_raster(r, map_x, map_y, nearest=nearest)
 
 
 def _correlation(g: dict, st: dict) -> dict[str, Any]:

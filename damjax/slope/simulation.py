@@ -56,6 +56,7 @@ from damjax.validation import (
     concrete_only,
     ensure_x64,
     expect_types,
+    lambda_problem,
     partial_cells,
     raise_if,
     require_x64,
@@ -697,7 +698,8 @@ def simulate_slope(
         params: slab and weak-layer parameters (`slope_deg` and `tau_peak` are used when
             the corresponding field is not given).
         setup: geometry and numerics.
-        slope_deg: local slope angle [deg], scalar or (nx, ny) at cell centres.
+        slope_deg: local slope angle [deg], scalar in (0, 90) or (nx, ny) at cell centres
+            in [0, 90) (a flat cell holds a slab that cannot slide).
         tau_peak: weak-layer strength [Pa], scalar or (nx, ny) at cell centres (e.g. a
             Gaussian random field from `damjax.fields`).
         fall_deg: local fall-line direction relative to -x [deg], scalar or (nx, ny):
@@ -719,8 +721,8 @@ def simulate_slope(
         cover: (nx, ny) bool, the snow-covered cells: only they hold particles (a cell
             without snow costs no particle work and is a free edge); None: every cell.
         stability: stability ratio S = tau_p / tau_g [-], (nx, ny) or a scalar, instead
-            of ``tau_peak``: each particle's strength is S times the shear its own slab
-            loads it with, rho g h0 sin(psi).
+            of ``tau_peak`` (which is then not used, and warned): each particle's
+            strength is S times the shear its own slab loads it with, rho g h0 sin(psi).
         wl_friction: friction coefficient mu [-] of the weak layer's strength (a scalar or
             (nx, ny)): tau_p = tau_peak + mu rho g h0 cos(psi), ``tau_peak`` the cohesion.
         domain: (nx, ny) bool, the cells the run may release (a release polygon's buffer
@@ -731,6 +733,13 @@ def simulate_slope(
     Slab that slides over the grid's edge leaves the run (outflow, counted in the
     summary) instead of stopping it.
     """
+    if stability is not None and tau_peak is not None:
+        warnings.warn(
+            "simulate_slope: tau_peak is not used with stability (the strength is S times "
+            "each particle's own load; with wl_friction, plus mu times its normal load)",
+            UserWarning,
+            stacklevel=2,
+        )
     snow = dict(thickness=thickness, cover=cover, stability=stability, wl_friction=wl_friction)
     traced = is_traced((params, slope_deg, tau_peak, fall_deg, snow))
     resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
@@ -894,7 +903,7 @@ def prepare(
             slope_problems(params, setup, slope_deg, tau_peak, fall_deg, **snow, domain=domain)
         )
     else:  # the maps read once the parameters and the grid are valid
-        raise_if(slope_problems(params, setup))
+        raise_if(slope_problems(params, setup, defer_lambda=True))
         source = fields(setup)
         if isinstance(source, tuple):
             slope_deg, fall_deg, tau_peak, start = source
@@ -905,6 +914,9 @@ def prepare(
             snow = {k: getattr(source, k, None) for k in snow}
             domain = getattr(source, "domain", None)
         setup = dataclasses.replace(setup, start=start)
+        if snow["thickness"] is None:  # else at the thinnest slab (slope_field_problems)
+            lam = float(theory.elastic_length(params))
+            raise_if([p for p in [lambda_problem(setup.dx, lam, SlopeSetup)] if p])
         raise_if(
             slope_field_problems(
                 setup, slope_deg, tau_peak, fall_deg, params=params, **snow, domain=domain
