@@ -35,6 +35,10 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
 
     Returns the matplotlib Figure; writes it to ``path`` when given.
     """
+    if not isinstance(result.tip, np.ndarray):
+        from damjax.pst import one_run_only
+
+        raise TypeError(one_run_only("plot_pst"))
     plt = _plt()
     p, s = result.params, result.setup
     cs = float(theory.shear_wave_speed(p))

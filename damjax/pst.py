@@ -84,6 +84,15 @@ def _snapshot(model: Model, state: State) -> dict[str, Any]:
     }
 
 
+def one_run_only(what: str) -> str:
+    """The message for a result that is not one run of concrete parameters."""
+    return (
+        f"{what} takes the result of one run of concrete parameters; this one holds JAX "
+        "arrays from inside jax.grad, jax.jit or jax.vmap (a batch has a leading member "
+        "axis): run the member you want on its own, damjax.simulate_pst(params, setup)"
+    )
+
+
 @dataclasses.dataclass
 class PSTResult:
     """Outcome of a PST run (SI units); a pytree, so `jax.vmap` of `simulate_pst` returns
@@ -174,10 +183,7 @@ class PSTResult:
         TOML of these parameters and setup: `damjax.scenario.loads` reads it back).
         Results of concrete parameters only (not from inside `jax.grad`/`jit`/`vmap`)."""
         if is_traced(self.tip) or not isinstance(self.tip, np.ndarray):
-            raise TypeError(
-                "PSTResult.to_dataset: a result of concrete parameters (this one holds JAX "
-                "arrays from inside jax.grad/jit/vmap)"
-            )
+            raise TypeError(one_run_only("PSTResult.to_dataset"))
         from damjax._version import __version__
 
         stable = {k: v for k, v in self.summary.items() if k not in io.TIMING_KEYS}

@@ -141,6 +141,9 @@ def test_local_frame_without_a_dem(run_dir, tmp_path):
     ds = gis.open_run(run_dir)
     fr = gis.frame_of(ds, scenario={"terrain": {"kind": "plane"}})
     assert fr.local and fr.crs is None
+    # a local frame is on no map: a CRS stated for it would put it on one silently
+    with pytest.raises(ValueError, match="crs = 'EPSG:2056': a run on terrain.kind = 'plane'"):
+        gis.frame_of(ds, scenario={"terrain": {"kind": "plane"}}, crs="EPSG:2056")
     files = gis.write_geotiffs(ds, fr, tmp_path)
     with rasterio.open(files["released"]) as src:
         assert src.crs is None and "DAMJAX_FRAME" in src.tags()

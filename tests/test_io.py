@@ -183,5 +183,9 @@ def test_a_python_result_writes_the_results_file_damjax_run_writes(tmp_path):
 
     with_theta = lambda th: eqx.tree_at(lambda p: p.strength_gradient, params, th)  # noqa: E731
     traced = jax.jit(lambda th: damjax.simulate_pst(with_theta(th), setup))(500.0)
-    with pytest.raises(TypeError, match="a result of concrete parameters"):
+    with pytest.raises(TypeError, match="takes the result of one run of concrete parameters"):
         traced.to_dataset()
+    from damjax.plot import plot_pst
+
+    with pytest.raises(TypeError, match="plot_pst takes the result of one run"):
+        plot_pst(traced)

@@ -468,7 +468,9 @@ kind = "plane"
 kind = "grf"
 mean = 1000.0        # [Pa] at the lower edge
 trend = 280.0        # [Pa/m] up-slope
-std = 150.0          # [Pa]
+std = 100.0          # [Pa] 10 % of the mean, the low end of the 10-30 % of penetrometer
+                     # strength maps (Kronholm and Schweizer 2003): the weak layer holds
+                     # its slab (703 Pa) before the trigger in every member
 length_scale = 2.0   # [m]
 seed = 0
 start_window = [2.0, 4.0]

@@ -57,11 +57,15 @@ MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # --------------------------------------------------------------------------- planning
 
 
-def _resolve(scn: Any) -> Any:
+def _resolve(scn: Any, member: int | None = None) -> Any:
     try:
         return resolve_inputs(scn)
-    except ValueError as exc:  # a plain one-line ValueError
-        raise ValueError(str(exc)) from None
+    except ValueError as exc:  # a plain one-line ValueError, naming the member
+        seed = (scn.strength or {}).get("seed")
+        who = "" if member is None else f"member {member}"
+        if who and seed is not None:
+            who += f" (strength.seed = {seed})"
+        raise ValueError(f"{who}: {exc}" if who else str(exc)) from None
 
 
 def shared_layout(ens: Ensemble, members: range | None = None) -> Any:
@@ -99,7 +103,7 @@ def _build_members(ens: Ensemble, idx: list[int], layout: Any) -> tuple[Any, Any
     models, states, scns = [], [], []
     for i in idx:
         scn = member_scenario(ens, i)
-        inp = _resolve(scn)
+        inp = _resolve(scn, i)
         ensure_x64(scn.setup.dtype)
         m, s = inp.build(scn, layout)
         models.append(m)

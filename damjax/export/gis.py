@@ -23,7 +23,9 @@ simulation. `Frame` is that map; this module uses it to write
 The CRS is the DEM's: read from a GeoTIFF, the ``.prj`` beside an ESRI ASCII grid, or a
 NetCDF ``crs_wkt`` / ``spatial_ref`` attribute; ``crs=`` overrides it. Runs on a "plane" or
 "generic" terrain have no map: they are written in the stated local frame (X = x up-slope
-along the surface, Y = y across, metres, no CRS; a ``DAMJAX_FRAME`` tag says so).
+along the surface, Y = y across, metres, no CRS, and ``crs=`` is refused; a
+``DAMJAX_FRAME`` tag says so); their ``area_m2`` is the area in that frame, along the
+surface.
 
 Needs ``pip install 'damjax[geo]'`` (rasterio, geopandas, pyogrio, shapely).
 """
@@ -256,8 +258,14 @@ def frame_of(
                 f"(e.g. EPSG:2056, or WKT; {' '.join(str(exc).split())})"
             ) from None
     if ter.get("kind") != "dem":
+        if user_crs is not None:  # its X, Y are metres along the surface, on no map
+            raise ValueError(
+                f"crs = {crs!r}: a run on terrain.kind = {ter.get('kind', 'plane')!r} has no "
+                "map (X up-slope along the surface, Y across, in metres); a CRS belongs to "
+                "a DEM run's files"
+            )
         s = np.array([0.0, nx * dx])
-        return Frame(dx, nx, ny, (0.0, 0.0), (1.0, 0.0), (0.0, 1.0), s, s, user_crs, True)
+        return Frame(dx, nx, ny, (0.0, 0.0), (1.0, 0.0), (0.0, 1.0), s, s, None, True)
     from damjax import terrain
 
     file = Path(dem) if dem is not None else Path(ter["file"])
