@@ -435,6 +435,22 @@ DOMAIN_SPEC = Spec(
     name="domain",
 )
 
+
+def map_specs() -> dict[str, Spec]:
+    """The declarations the maps of a slope run are checked against: those of the
+    parameters tau_peak and thickness, the slope map's (flat cells too), the fall-line
+    direction's, the stability ratio's and the weak layer's friction coefficient's."""
+    table = specs(PSTParams)
+    return {
+        "slope_deg": SLOPE_MAP_SPEC,
+        "tau_peak": table["tau_peak"],
+        "fall_deg": FALL_DEG_SPEC,
+        "thickness": table["thickness"],
+        "stability": STABILITY_SPEC,
+        "wl_friction": WL_FRICTION_SPEC,
+    }
+
+
 # PSTParams fields that are arrays over x (a batch of them has shape (B, m))
 PROFILE_FIELDS = tuple(n for n, s in specs(PSTParams).items() if s.kind == "profile")
 

@@ -33,16 +33,13 @@ from damjax.constants import G_ACC
 from damjax.params import (
     COVER_SPEC,
     DOMAIN_SPEC,
-    FALL_DEG_SPEC,
     PROFILE_FIELDS,
-    SLOPE_MAP_SPEC,
-    STABILITY_SPEC,
-    WL_FRICTION_SPEC,
     PSTParams,
     PSTSetup,
     SlopeSetup,
     Spec,
     is_plastic,
+    map_specs,
     spec_of,
     specs,
 )
@@ -383,21 +380,6 @@ def _cells_problem(name: str, setup: Any) -> Problem:
 # the snow cover's inputs of a slope run (`damjax.simulate_slope`; 2026-11-27)
 SNOW_MAPS = ("thickness", "stability", "wl_friction")
 SNOW_MASKS = ("cover", "domain")
-
-
-def map_specs() -> dict[str, Spec]:
-    """The declarations the maps of a slope run are checked against (`damjax.params`):
-    those of the parameters slope_deg, tau_peak and thickness, of the fall-line direction,
-    of the stability ratio and of the weak layer's friction coefficient."""
-    table = specs(PSTParams)
-    return {
-        "slope_deg": SLOPE_MAP_SPEC,
-        "tau_peak": table["tau_peak"],
-        "fall_deg": FALL_DEG_SPEC,
-        "thickness": table["thickness"],
-        "stability": STABILITY_SPEC,
-        "wl_friction": WL_FRICTION_SPEC,
-    }
 
 
 def mask_specs() -> dict[str, Spec]:

@@ -35,14 +35,11 @@ from damjax.materials.slab import Slab
 from damjax.materials.slab_fracture import Fracture
 from damjax.materials.weak_layer import WeakLayer
 from damjax.params import (
-    FALL_DEG_SPEC,
-    SLOPE_MAP_SPEC,
-    STABILITY_SPEC,
-    WL_FRICTION_SPEC,
     PSTParams,
     PSTSetup,
     SlopeSetup,
     is_plastic,
+    map_specs,
     specs,
 )
 
@@ -728,11 +725,9 @@ def build_slope(
     )
     psi, fall, tau_p, h0 = pf["psi"], pf["fall"], pf["tau_peak"], pf["thickness"]
     # traced values outside their ranges stop the run
-    table = {**specs(PSTParams), "fall_deg": FALL_DEG_SPEC}
-    table.update(stability=STABILITY_SPEC, wl_friction=WL_FRICTION_SPEC, slope_deg=SLOPE_MAP_SPEC)
     maps = dict(tau_peak=tau_peak, slope_deg=slope_deg, fall_deg=fall_deg)
     maps.update(thickness=thickness, stability=stability, wl_friction=wl_friction)
-    checks = _param_checks(params) + traced_checks(maps, table, "cell")
+    checks = _param_checks(params) + traced_checks(maps, map_specs(), "cell")
     dt = _checked(f(setup.duration / layout.n_steps), checks)
     gs = G_ACC * jnp.sin(psi)
     g_t = jnp.stack([-gs * jnp.cos(fall), -gs * jnp.sin(fall)])  # down the local fall line
