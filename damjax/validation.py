@@ -484,6 +484,13 @@ def slope_field_problems(
             reason = "must be a scalar or a 2D array (nx, ny)"
         elif not snow_map and not np.all(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))):
             reason = "must be a finite scalar or a 2D array (nx, ny)"
+            bad = ~(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak")))
+            if a.ndim == 2:  # where: a map from a file or a computation
+                i, j = (int(k[0]) for k in np.nonzero(bad))
+                reason += (
+                    f" of finite numbers ({int(bad.sum())} not, the first {a[i, j]} at cell "
+                    f"({i}, {j}))"
+                )
         elif not np.all(spec.valid.holds(a)):
             where = (
                 "every cell, those without snow too: the particles beside them interpolate; "

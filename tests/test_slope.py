@@ -789,6 +789,9 @@ def test_start_window_with_a_y_range_and_its_errors():
         (dict(start_window=((2, 6), (7, 11))), "of finite numbers"),
         (dict(length=19.0), "must be at most length = 19 m"),
         (dict(roll_length=-1.0), "roll_length = -1.0: must be in \\(0, inf\\) m"),
+        # the area before the window that is checked against it
+        (dict(length=-5.0), "length = -5.0: must be a number in \\(0, inf\\) m"),
+        (dict(seed=-1), "seed = -1: must be an integer >= 0"),
     ],
 )
 def test_generic_slope_case_checks_its_fields_when_built(kw, needle):

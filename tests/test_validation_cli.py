@@ -115,6 +115,24 @@ def test_slope_field_of_the_wrong_shape_is_rejected():
             simulate_slope(PSTParams(), setup, **{name: np.full((7, 3), 35.0)})
 
 
+def test_slope_maps_of_bools_strings_or_nan_are_rejected_with_where():
+    """A map argument is numbers: a bool or a numeric string is not silently converted,
+    and a NaN cell is named."""
+    import numpy as np
+
+    from damjax import SlopeSetup, simulate_slope
+
+    setup = SlopeSetup(length=4.0, width=4.0, dx=0.2, start=(2.0, 2.0))
+    for kw in (dict(tau_peak=True), dict(tau_peak="1e3"), dict(slope_deg="35")):
+        name = next(iter(kw))
+        with pytest.raises(ValueError, match=rf"{name} field: must be a number or a 2D array"):
+            simulate_slope(PSTParams(), setup, **kw)
+    tau = np.full((20, 20), 1000.0)
+    tau[3, 5] = np.nan
+    with pytest.raises(ValueError, match=r"1 not, the first nan at cell \(3, 5\)"):
+        simulate_slope(PSTParams(), setup, tau_peak=tau)
+
+
 def test_inconsistent_values_are_rejected():
     with pytest.raises(ValueError, match="steady_length"):
         simulate_pst(PSTParams(steady_length=30.0), PSTSetup(length=20.0, dx=0.05))

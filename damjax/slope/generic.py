@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from typing import Any
 
 import jax
@@ -118,6 +119,16 @@ class GenericSlopeCase:
     dtype: str = "float32"
 
     def __post_init__(self) -> None:
+        # the area and the seed first: the window and the profile are checked against them
+        for name in ("length", "width", "dx"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not 0 < v < math.inf:
+                raise ValueError(
+                    f"GenericSlopeCase: {name} = {v!r}: must be a number in (0, inf) m"
+                )
+        seed = self.seed
+        if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+            raise ValueError(f"GenericSlopeCase: seed = {seed!r}: must be an integer >= 0")
         if self.start is None:
             problem = window_problem(self.start_window, self.length, self.width)
             if problem:
