@@ -16,6 +16,7 @@ gpd = pytest.importorskip("geopandas")
 shapely = pytest.importorskip("shapely")
 
 from damjax import release_area, scenario  # noqa: E402
+from damjax.scenario import prepared  # noqa: E402
 from damjax.scenario.slope_fields import cell_centres, release_area_of, resolve_fields  # noqa: E402
 from verification import real_path as rp  # noqa: E402
 
@@ -81,6 +82,9 @@ def test_toy_path_runs_and_compares(tmp_path):
     inside = area.mask(x, y, buffer=2.0)
     i, j = np.argmin(np.abs(x - start[0])), np.argmin(np.abs(y - start[1]))
     assert inside[i, j]  # the crack starts inside the polygon
+    # its length and width are the polygon's (not whole cells): no note to the user of them
+    assert scn.setup.length / scn.setup.dx % 1 > 0.01
+    assert not any("whole number of cells" in n.text() for n in prepared(scn).notes)
     row = rp.run_path("avaKot", tmp_path / "out", members=1, scenario=scn, avaframe=False)
     assert row["polygon_area_m2"] > 16.0**2  # surface area of a 16 m x 16 m map square
     assert 0 < row["released_area_m2"] and 0 <= row["overlap_iou"] <= 1

@@ -201,6 +201,8 @@ class SlopeInputs:
         map_x, map_y: map coordinates of the cell centres [m] (DEM terrain), else None.
         start_zone: snow-covered cells in the slope band of release areas (with [snow]).
         dx: the cells' size [m].
+        area_from_polygon: the area's length and width are a release polygon's (plus its
+            buffer or margin), not the user's.
     Cells without snow carry their nearest snow-covered neighbour's values (they enter
     the interpolation of the particles beside them).
     """
@@ -218,6 +220,7 @@ class SlopeInputs:
     map_y: np.ndarray | None = None
     start_zone: np.ndarray | None = None
     dx: float = 1.0
+    area_from_polygon: bool = False
 
     def snow_kwargs(self) -> dict[str, Any]:
         """`damjax.core.model.build_slope`'s snow and weak-layer keywords."""
@@ -551,6 +554,7 @@ def _resolve(scn: Any) -> SlopeInputs:
         map_y=map_y,
         start_zone=zone,
         dx=float(setup.dx),
+        area_from_polygon=bool(ter.get("release")),
     )
     return inp
 

@@ -337,11 +337,16 @@ class SlopeRunWarning(UserWarning):
 
 
 def _slope_notes(
-    params: PSTParams, setup: SlopeSetup, slope_deg: Any, fall_deg: Any = 0.0
+    params: PSTParams,
+    setup: SlopeSetup,
+    slope_deg: Any,
+    fall_deg: Any = 0.0,
+    area_given: bool = True,
 ) -> list[str]:
     """Valid but dubious slope inputs: a start at or below the friction angle (a released
     slab does not slide there, so the crack cannot run away from the saw), a length or
-    width that is not a whole number of cells (the grid rounds it)."""
+    width that is not a whole number of cells (the grid rounds it; not said where a
+    release polygon, not the user, gave them: ``area_given`` False)."""
     notes = []
     psi = np.asarray(slope_deg, dtype=float)
     phi = float(params.friction_deg)
@@ -365,7 +370,7 @@ def _slope_notes(
             "fall_deg: the fall line is more than 90 deg from -x over the area, so its x "
             "axis points down the slope and 'up-slope' results follow x"
         )
-    for name, v, grid in partial_cells(setup, ("length", "width")):
+    for name, v, grid in partial_cells(setup, ("length", "width")) if area_given else ():
         notes.append(
             f"{name} = {v:g}: not a whole number of cells of dx = {setup.dx:g}; the "
             f"area is {grid:.6g} m {'long' if name == 'length' else 'wide'}"
@@ -924,7 +929,9 @@ def prepare(
         )
     notes = [
         Problem(None, reason=note, form="line", setup=SlopeSetup, category="slope")
-        for note in _slope_notes(params, setup, slope_deg, fall_deg)
+        for note in _slope_notes(
+            params, setup, slope_deg, fall_deg, not getattr(source, "area_from_polygon", False)
+        )
     ]
     if domain is not None and np.ndim(slope_deg) == 2:
         notes.extend(_domain_notes(params, setup, slope_deg, snow["cover"], domain))
