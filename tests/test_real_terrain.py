@@ -305,6 +305,13 @@ def test_uniform_thickness_is_bitwise_todays_run():
 # --------------------------------------------------------------------------- weak layer
 
 
+def test_an_implausibly_wide_stability_field_is_noted():
+    doc = _plain_doc()
+    doc["strength"] = {"kind": "stability", "mean": 1.42, "cov": 2.0, "length_scale": 2.0}
+    with pytest.warns(UserWarning, match=r"strength.cov = 2.0: far above the 10-30 %"):
+        scenario.parse(doc)
+
+
 def test_stability_field_stays_above_one():
     """S - 1 log-normal: S > 1 on every cell of a drawn field, whatever the spread, with
     the mean and coefficient of variation asked for (over many correlation lengths)."""

@@ -239,6 +239,7 @@ _STRENGTH_COMMON = {
     # "random": a random cell of the start zone, drawn with strength.seed (2026-11-27)
     "trigger": ("str", TRIGGERS, ""),
 }
+COV_PLAUSIBLE = 0.5  # [-] of the stability ratio: above it a scenario notes the value
 # --- the snow cover (2026-11-27; damjax.snow_cover) -----------------------------------
 _ANGLE_TO_90 = (lambda v: 0 < v <= 90, "(0, 90]")
 _SNOW_KEYS: dict[str, dict[str, tuple[str, Any, str]]] = {
@@ -488,6 +489,13 @@ def check(
         )
     notes: list[str] = []
     _snow_strength_rules(terrain, strength, snow, base_dir, problems)
+    cov = (strength or {}).get("cov")
+    if isinstance(cov, (int, float)) and cov > COV_PLAUSIBLE:
+        # valid, but a field that wide puts much of the slope at S just above 1
+        notes.append(
+            f"strength.cov = {_fmt(cov)}: far above the 10-30 % of measured strength maps "
+            f"(Kronholm and Schweizer 2003); plausible up to {COV_PLAUSIBLE:g}"
+        )
     if terrain is not None and terrain["kind"] == "dem" and "release" in terrain:
         from_snow = snow is not None and (
             snow["kind"] == "depth_map"
