@@ -238,6 +238,12 @@ def test_snow_rasters_are_checked_where_they_are_read(tmp_path):
         doc["snow"] = {"kind": "uniform", "max_slope_deg": 60.0, **snow}
         with pytest.raises(ValueError, match=match):
             quiet_parse(doc, base_dir=tmp_path)
+    terrain.save_esri_ascii(terrain.Terrain(x, y, np.full((61, 41), 8.0)), tmp_path / "hs8.asc")
+    doc["snow"] = {"kind": "depth_map", "file": "hs8.asc", "max_slope_deg": 60.0}
+    doc["setup"]["dx"] = 0.2  # 8 m x cos 30 deg the thickest slab
+    with pytest.warns(UserWarning, match=r"slab thicknesses up to 6.93 m, above the 5 m"):
+        scenario.parse(doc, base_dir=tmp_path)
+    doc["setup"]["dx"] = 0.25
     doc["snow"] = {"kind": "uniform"}
     doc["terrain"]["buffer"] = 50.0
     with pytest.raises(ValueError, match="terrain.buffer: the terrain around a release polygon"):

@@ -593,6 +593,18 @@ def _snow_cover(
                 "domain: must be >= 0 m (no snow: 0 or nodata)"
             )
         thickness = snow_cover.depth_to_thickness(hs, psi)
+    if thickness is not None:  # valid, but beyond the slabs of dry-snow slab avalanches
+        from damjax.params import PSTParams, specs
+
+        plausible = specs(PSTParams)["thickness"].plausible
+        cells = np.isfinite(thickness) if domain is None else np.isfinite(thickness) & domain
+        thick = float(np.max(thickness[cells])) if np.any(cells) else 0.0
+        if thick > plausible.hi:
+            warnings.warn(
+                f"snow: slab thicknesses up to {thick:.3g} m, above the {plausible.hi:g} m "
+                f'of dry-snow slab avalanches ({plausible}; snow.kind = "{kind}")',
+                stacklevel=2,
+            )
     mask = None
     if "mask" in sn:
         m = _snow_raster(scn, "mask", map_x, map_y, domain, nearest=True)
