@@ -96,12 +96,25 @@ def test_inversion_and_the_smooth_arrest_check_their_options():
         (dict(fields=["softening", "softening"]), r"\['softening'\] named more than once"),
         (dict(smooth_width=-1.0), r"smooth_width = -1.0: must be None or a number in \(0, 1\]"),
         (dict(fields=["strength_profile"]), "strength_profile = None: a fitted field"),
+        (dict(steps=0), r"steps = 0: must be an integer >= 1"),
+        (dict(steps=2.5), r"steps = 2.5: must be an integer >= 1"),
+        (dict(learning_rate=-0.05), r"learning_rate = -0.05: must be a number in \(0, inf\)"),
+        (dict(learning_rate=float("nan")), r"learning_rate = nan: must be a number in"),
     ]:
         kw = {"fields": ["softening"], **kw}
         with pytest.raises(ValueError, match=msg):
             calibrate.invert(obs, params, setup, **kw)
     with pytest.raises(ValueError, match=r"overrides \['strength_gradiant'\] are not PSTP"):
         calibrate.invert([({"strength_gradiant": 1.0}, 4.0)], params, setup, ["softening"])
+    with pytest.raises(ValueError, match=r"L_observed = 50.0: must be in \(0, 8\] m"):
+        calibrate.invert([({}, 50.0)], params, setup, ["softening"])
+    assert calibrate.inversion.optimizer_problems(1, 0.1, -1.0) == [
+        "tol = -1.0: must be a number in [0, inf)"
+    ]
+    from damjax.calibrate.slope import observation_grid
+
+    with pytest.raises(ValueError, match=r"cell = 0.0: must be a number in \(0, inf\) m"):
+        observation_grid(damjax.SlopeSetup(length=4.0, width=4.0), 0.0)
     layout = damjax.make_layout(params, setup)
     with pytest.raises(ValueError, match=r"width = 5.0: must be None or a number in \(0, 1\]"):
         damjax.arrest_position_smooth(params, setup, layout, width=5.0)
@@ -112,3 +125,14 @@ def test_inversion_and_the_smooth_arrest_check_their_options():
                 dataclasses.replace(params, strength_gradient=th), setup, layout
             )
         )(float("nan"))
+
+
+def test_a_fit_whose_iterate_leaves_the_valid_range_stops_with_the_best_one():
+    """The jitted gradient sees tracers, so the concrete iterate is checked between steps:
+    a step that takes tau_peak below the slab's own shear (a failed weak layer) stops the
+    fit with a warning and the best valid iterate, not an error that loses the fit."""
+    setup = PSTSetup(length=12.0, dx=0.1, duration=1.0)
+    p0 = PSTParams(steady_length=5.0, strength_gradient=800.0, softening=1.0, tau_peak=800.0)
+    with pytest.warns(UserWarning, match=r"invert: stopped at iterate 1.*tau_peak"):
+        r = calibrate.invert([({}, 11.9)], p0, setup, ["tau_peak"], steps=6, learning_rate=0.3)
+    assert r.estimates["tau_peak"] == pytest.approx(800.0) and len(r.history) == 1

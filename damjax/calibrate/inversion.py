@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,7 +19,7 @@ import numpy as np
 
 from damjax import pst
 from damjax.core.loop import cpu_compiler_options
-from damjax.validation import check_width
+from damjax.validation import InputError, check_width, param_problems
 
 
 @dataclasses.dataclass
@@ -57,6 +59,37 @@ def _positive_scalar(value: Any) -> bool:
         return np.ndim(value) == 0 and math.isfinite(float(value)) and float(value) > 0
     except (TypeError, ValueError):
         return False
+
+
+def _stopped_early(who: str, k: int, exc: Exception) -> None:
+    """Warn that a fit stopped at iterate ``k`` whose parameters left their valid range."""
+    first = next((ln for ln in str(exc).splitlines() if ln.strip()), str(exc))
+    warnings.warn(
+        f"{who}: stopped at iterate {k}, whose parameters left their valid range "
+        f"({first.strip()[:300]}); the best iterate before it is returned (a smaller "
+        "learning_rate, or observations the model can reach)",
+        stacklevel=3,
+    )
+
+
+def optimizer_problems(steps: Any, learning_rate: Any, tol: Any = None) -> list[str]:
+    """The problems of an optimiser's arguments (`invert`, `calibrate_slope`): ``steps``
+    an integer >= 1, ``learning_rate`` a number in (0, inf), ``tol`` (where given) a
+    number in [0, inf)."""
+    out = []
+    if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 1:
+        out.append(f"steps = {steps!r}: must be an integer >= 1 (optimiser iterations)")
+    if isinstance(learning_rate, bool) or not _positive_scalar(learning_rate):
+        out.append(f"learning_rate = {learning_rate!r}: must be a number in (0, inf)")
+    if tol is not None:
+        ok = not isinstance(tol, bool) and np.ndim(tol) == 0
+        try:
+            ok = ok and math.isfinite(float(tol)) and float(tol) >= 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            out.append(f"tol = {tol!r}: must be a number in [0, inf)")
+    return out
 
 
 def invert(
@@ -118,6 +151,12 @@ def invert(
                 f"observations[{i}]: L_observed = {observed!r}: must be a finite arrest "
                 "position [m] (a run that did not arrest has none: NaN)"
             )
+        elif not 0.0 < float(observed) <= float(setup.length):
+            problems.append(
+                f"observations[{i}]: L_observed = {observed!r}: must be in (0, "
+                f"{float(setup.length):g}] m, an arrest inside the PST (setup.length)"
+            )
+    problems += optimizer_problems(steps, learning_rate)
     if problems:
         raise ValueError("\n".join(problems))
     layout = pst.make_layout(params0, setup)
@@ -154,17 +193,45 @@ def invert(
 
         it = tqdm(it, desc="invert")
     best_x, best, best_step = x, math.inf, 0
+
+    def iterate_problems(x: Any) -> list[Any]:
+        # the jitted gradient sees tracers: the concrete iterate is checked here, every
+        # field and how they fit together (a tau_peak below tau_g: a failed layer)
+        fitted = {f: float(jnp.exp(x[i])) for i, f in enumerate(fields)}
+        return [
+            p
+            for o in over
+            for p in param_problems(dataclasses.replace(params0, **{**o, **fitted}), setup)
+        ]
+
     for k in it:
-        val, g = vg(x)
+        problems = iterate_problems(x)
+        try:
+            if problems:
+                raise InputError(problems)
+            val, g = vg(x)
+        except (ValueError, RuntimeError) as exc:  # an iterate outside the valid range
+            if not hist:
+                raise
+            _stopped_early("invert", k, exc)
+            x = best_x
+            break
         hist.append(float(val))
         if float(val) < best:  # Adam's iterates oscillate: keep the best one seen
             best_x, best, best_step = x, float(val), k
         upd, st = opt.update(g, st)
         x = optax.apply_updates(x, upd)
-    # the iterate after the last update is one of them too
-    hist.append(float(loss(x)))
-    if hist[-1] < best:
-        best_x, best, best_step = x, hist[-1], len(hist) - 1
+    else:  # the iterate after the last update is one of them too
+        try:
+            problems = iterate_problems(x)
+            if problems:
+                raise InputError(problems)
+            hist.append(float(loss(x)))
+        except (ValueError, RuntimeError) as exc:
+            _stopped_early("invert", len(hist), exc)
+        else:
+            if hist[-1] < best:
+                best_x, best, best_step = x, hist[-1], len(hist) - 1
     x = best_x
     J = np.asarray(jax.jit(jax.jacfwd(predict))(x)) / noise_std  # (n_obs, n_fields)
     H = 2.0 * J.T @ J

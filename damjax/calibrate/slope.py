@@ -38,6 +38,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from damjax.calibrate.inversion import _positive_scalar as _positive_number
+from damjax.calibrate.inversion import _stopped_early, optimizer_problems
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
@@ -149,6 +151,8 @@ class ObservationGrid:
 
 def observation_grid(setup: SlopeSetup, cell: float) -> ObservationGrid:
     """Observation cells of size `cell` [m] over the setup's release area."""
+    if isinstance(cell, bool) or not _positive_number(cell):
+        raise ValueError(f"observation_grid: cell = {cell!r}: must be a number in (0, inf) m")
     return ObservationGrid(
         float(cell),
         (int(math.ceil(setup.length / cell - 1e-9)), int(math.ceil(setup.width / cell - 1e-9))),
@@ -336,6 +340,13 @@ def calibrate_slope(
     bad = [f for f in fields if f not in CALIBRATED]
     if bad:
         raise ValueError(f"calibrate_slope: cannot fit {bad}; choose from {CALIBRATED}")
+    problems = optimizer_problems(steps, learning_rate, tol)
+    if not fields:
+        problems.append(f"fields: empty; name at least one of {CALIBRATED}")
+    if len(set(fields)) != len(fields):
+        problems.append(f"fields: {list(fields)} names a field more than once")
+    if problems:
+        raise ValueError("calibrate_slope: " + "\ncalibrate_slope: ".join(problems))
     p = problem.params
     start = {"tensile_strength": float(p.tensile_strength), "softening": float(p.softening)}
     unknown = sorted(k for k in (initial or {}) if k not in start)
@@ -358,6 +369,11 @@ def calibrate_slope(
             f"calibrate_slope: observed has {int(np.sum(~np.isfinite(obs)))} non-finite "
             "cells: must be 0 (not released) to 1 (released) everywhere"
         )
+    if np.any((obs < 0) | (obs > 1)):
+        raise ValueError(
+            f"calibrate_slope: observed holds values from {float(obs.min()):g} to "
+            f"{float(obs.max()):g}: must be 0 (not released) to 1 (released) everywhere"
+        )
     dtype = problem.model.fracture.p0_init.dtype
     fixed = jnp.asarray([start[f] for f in CALIBRATED], dtype)
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
@@ -378,7 +394,13 @@ def calibrate_slope(
     t0 = time.perf_counter()
     best: tuple[float, Any, Any, int] = (math.inf, x, jnp.full_like(x, jnp.nan), 0)
     for k in range(steps):
-        val, g = vg(x, fixed)
+        try:
+            val, g = vg(x, fixed)
+        except (ValueError, RuntimeError) as exc:  # an iterate outside the valid range
+            if not hist:
+                raise
+            _stopped_early("calibrate_slope", k, exc)
+            break
         row = {"loss": float(val), **{f: math.exp(float(x[i])) for i, f in enumerate(fields)}}
         hist.append(row)
         if progress:
