@@ -136,3 +136,18 @@ def test_a_fit_whose_iterate_leaves_the_valid_range_stops_with_the_best_one():
     with pytest.warns(UserWarning, match=r"invert: stopped at iterate 1.*tau_peak"):
         r = calibrate.invert([({}, 11.9)], p0, setup, ["tau_peak"], steps=6, learning_rate=0.3)
     assert r.estimates["tau_peak"] == pytest.approx(800.0) and len(r.history) == 1
+
+
+def test_a_fit_whose_override_fixes_the_layout_takes_its_layout():
+    """A stiffer slab in an override needs a shorter time step than params0's layout
+    has: the error says to make one, and `invert(layout=...)` takes it."""
+    import damjax
+
+    setup = PSTSetup(length=12.0, dx=0.1, duration=1.0)
+    p0 = PSTParams(steady_length=5.0, strength_gradient=800.0, softening=1.0)
+    stiff = {"youngs_modulus": 4 * p0.youngs_modulus}
+    with pytest.raises(ValueError, match="make_layout"):
+        calibrate.invert([(stiff, 6.9)], p0, setup, ["tau_peak"], steps=1)
+    layout = damjax.make_layout(dataclasses.replace(p0, **stiff), setup)
+    r = calibrate.invert([(stiff, 6.9)], p0, setup, ["tau_peak"], steps=1, layout=layout)
+    assert len(r.history) == 2 and all(np.isfinite(r.history))

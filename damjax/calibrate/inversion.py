@@ -19,6 +19,7 @@ import numpy as np
 
 from damjax import pst
 from damjax.core.loop import cpu_compiler_options
+from damjax.core.model import check_layout
 from damjax.validation import InputError, check_width, param_problems
 
 
@@ -103,6 +104,7 @@ def invert(
     learning_rate: float = 0.05,
     progress: bool = False,
     smooth_width: float | None = None,
+    layout: Any = None,
 ) -> Inversion:
     """Recover ``fields`` of `PSTParams` from observed arrest positions [m].
 
@@ -114,7 +116,10 @@ def invert(
     returned Gauss-Newton Hessian then is singular (condition number inf).
     ``smooth_width``: None (default) differentiates the continuous crack length; a
     damage-ramp width (0.5) where slab fractures stop the crack
-    (`damjax.diagnostics.smooth_arrest_position`).
+    (`damjax.diagnostics.smooth_arrest_position`). ``layout``: the runs' layout
+    (`damjax.make_layout`), default made from ``params0``; where a fitted field or an
+    override fixes it (youngs_modulus, density, ...: a stiffer slab needs a shorter time
+    step), make it from the stiffest parameters the fit may reach.
     The estimates are the best iterate (lowest loss) of the Adam run, the last one
     included, not the last: Adam's iterates oscillate around the minimum. ``steps`` Adam
     updates evaluate ``steps + 1`` iterates (`Inversion.history`).
@@ -159,7 +164,7 @@ def invert(
     problems += optimizer_problems(steps, learning_rate)
     if problems:
         raise ValueError("\n".join(problems))
-    layout = pst.make_layout(params0, setup)
+    layout = pst.make_layout(params0, setup) if layout is None else layout
     x0 = jnp.asarray([math.log(float(getattr(params0, f))) for f in fields])
     over = [{k: float(v) for k, v in o.items()} for o, _ in observations]
     obs = jnp.asarray([float(L) for _, L in observations])
@@ -194,21 +199,21 @@ def invert(
         it = tqdm(it, desc="invert")
     best_x, best, best_step = x, math.inf, 0
 
-    def iterate_problems(x: Any) -> list[Any]:
+    def check_iterate(x: Any) -> None:
         # the jitted gradient sees tracers: the concrete iterate is checked here, every
-        # field and how they fit together (a tau_peak below tau_g: a failed layer)
+        # field, how they fit together (a tau_peak below tau_g: a failed layer) and the
+        # layout's time step (a stiffer slab needs a shorter one)
         fitted = {f: float(jnp.exp(x[i])) for i, f in enumerate(fields)}
-        return [
-            p
-            for o in over
-            for p in param_problems(dataclasses.replace(params0, **{**o, **fitted}), setup)
-        ]
-
-    for k in it:
-        problems = iterate_problems(x)
-        try:
+        for o in over:
+            p = dataclasses.replace(params0, **{**o, **fitted})
+            problems = param_problems(p, setup)
             if problems:
                 raise InputError(problems)
+            check_layout(p, setup, layout)
+
+    for k in it:
+        try:
+            check_iterate(x)
             val, g = vg(x)
         except (ValueError, RuntimeError) as exc:  # an iterate outside the valid range
             if not hist:
@@ -223,9 +228,7 @@ def invert(
         x = optax.apply_updates(x, upd)
     else:  # the iterate after the last update is one of them too
         try:
-            problems = iterate_problems(x)
-            if problems:
-                raise InputError(problems)
+            check_iterate(x)
             hist.append(float(loss(x)))
         except (ValueError, RuntimeError) as exc:
             _stopped_early("invert", len(hist), exc)
