@@ -38,8 +38,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax.calibrate.inversion import _positive_scalar as _positive_number
-from damjax.calibrate.inversion import _stopped_early, optimizer_problems
+from damjax.calibrate.inversion import _positive_scalar, _stopped_early, optimizer_problems
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
@@ -151,7 +150,7 @@ class ObservationGrid:
 
 def observation_grid(setup: SlopeSetup, cell: float) -> ObservationGrid:
     """Observation cells of size `cell` [m] over the setup's release area."""
-    if isinstance(cell, bool) or not _positive_number(cell):
+    if isinstance(cell, bool) or not _positive_scalar(cell):
         raise ValueError(f"observation_grid: cell = {cell!r}: must be a number in (0, inf) m")
     return ObservationGrid(
         float(cell),

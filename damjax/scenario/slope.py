@@ -560,12 +560,6 @@ def check(
     except InputError as exc:
         bad = pbad | sbad  # their kind was reported: the checks saw the default
         reported = [p for p in exc.problems if p.field not in bad]
-        raw_terrain = data.get("terrain")
-        polygon = isinstance(raw_terrain, dict) and "release" in raw_terrain
-        if n0 and polygon and "thickness" not in pgiven:
-            # the polygon that gives the slab's thickness was not read: dx was checked
-            # against Lambda of the default thickness, not the slab's
-            reported = [p for p in reported if not (p.field == "dx" and "Lambda" in p.reason)]
         problems += _lines(reported, given, terrain or {"kind": "plane"}, "start" in svals)
         return None, []
     if problems:

@@ -412,6 +412,8 @@ def _resolve(scn: Any) -> SlopeInputs:
         fall = 0.0
     h_cells = float(params.thickness) if thickness is None else thickness
     tau_g = float(params.density) * G_ACC * h_cells * np.sin(np.radians(slope))
+    # the slab's normal stress on the weak layer [Pa] (a friction coefficient's load)
+    sigma_n = float(params.density) * G_ACC * h_cells * np.cos(np.radians(slope))
 
     # the weak layer
     st = scn.strength or {"kind": "constant"}
@@ -444,7 +446,6 @@ def _resolve(scn: Any) -> SlopeInputs:
             raise _FieldProblem(f"strength.{exc}") from None
         if st["kind"] == "coulomb":
             wl_friction = float(st["friction_coefficient"])
-            sigma_n = float(params.density) * G_ACC * h_cells * np.cos(np.radians(slope))
             if not np.all(tau + wl_friction * sigma_n > 0):
                 raise _FieldProblem(
                     f"strength.cohesion = {_fmt(st.get('cohesion'))}, "
@@ -470,9 +471,7 @@ def _resolve(scn: Any) -> SlopeInputs:
         tau = stability * tau_g
         if "friction_coefficient" in st:  # a floor that follows the normal load
             wl_friction = float(st["friction_coefficient"])
-            tau = tau + wl_friction * float(params.density) * G_ACC * h_cells * np.cos(
-                np.radians(slope)
-            )
+            tau = tau + wl_friction * sigma_n
         flat = (tau <= 0) if cover is None else (tau <= 0) & cover
         if np.any(flat):
             raise _FieldProblem(
@@ -516,9 +515,7 @@ def _resolve(scn: Any) -> SlopeInputs:
     if st["kind"] == "stability":
         weakness = stability
     elif st["kind"] == "coulomb":
-        tau_c = tau + wl_friction * float(params.density) * G_ACC * h_cells * np.cos(
-            np.radians(slope)
-        )
+        tau_c = tau + wl_friction * sigma_n
         with np.errstate(divide="ignore", invalid="ignore"):  # flat cells: never the weakest
             weakness = np.where(tau_g > 0, tau_c / np.where(tau_g > 0, tau_g, 1.0), np.inf)
     snow_cells = np.ones((x.size, y.size), bool) if cover is None else cover
