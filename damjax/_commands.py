@@ -3,10 +3,30 @@ is one line per problem on stderr and an exit code, never a traceback."""
 
 from __future__ import annotations
 
+import argparse
 import os
+import re
 import sys
 from collections.abc import Callable
 from typing import Any
+
+# a value that starts with "-" is read as a flag unless it looks like a number; argparse's
+# own pattern knows "-5" and "-0.5" but not "-1e3", "-inf" or "-nan", which then failed as
+# "expected one argument" instead of reaching the range check
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.I)
+
+
+class Parser(argparse.ArgumentParser):
+    """The commands' parser: an error is one ``damjax: error:`` line and exit code 2 (no
+    usage dump), and negative numbers in any notation are values, not flags."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+    def error(self, message: str) -> Any:  # one line, exit 2, no usage dump
+        sys.stderr.write(f"damjax: error: {message}\n")
+        sys.exit(2)
 
 
 def dispatch(func: Callable[[Any], int], ns: Any, interrupted: str = "damjax: interrupted") -> int:

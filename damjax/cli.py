@@ -30,6 +30,7 @@ import threading
 import warnings
 from typing import Any, NoReturn
 
+from damjax._commands import Parser as _Parser
 from damjax._commands import dispatch
 from damjax.params import PSTParams, PSTSetup, Spec, specs
 
@@ -50,12 +51,6 @@ def _help(spec: Spec, default: Any) -> str:
         valid = ("an integer in " if spec.kind == "int" else "in ") + str(spec.valid)
     default = f"default: {spec.optional}" if spec.optional else f"default {default}"
     return f"{spec.doc}{unit}" + (f", {valid}" if valid else "") + f"; {default}"
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2, no usage dump
-        sys.stderr.write(f"damjax: error: {message}\n")
-        sys.exit(2)
 
 
 def _number(text: str) -> float:

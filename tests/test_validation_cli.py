@@ -150,6 +150,15 @@ def test_several_problems_one_line_each(capsys):
         assert any(flag in line for line in err)
 
 
+@pytest.mark.parametrize("text", ["-1e3", "-inf", "-NaN", "-.5E+1"])
+def test_cli_negative_numbers_in_any_notation_reach_the_range_check(text, capsys):
+    # argparse alone reads "-1e3" or "-inf" as a flag: "expected one argument"
+    rc = main(["pst", "--tensile-strength", text, "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert "tensile_strength (--tensile-strength) = " in err[0] and "must be in (0, inf]" in err[0]
+
+
 def test_cli_non_numeric_value_exits_2_without_traceback():
     proc = subprocess.run(
         [sys.executable, "-m", "damjax", "pst", "--dx", "abc"], capture_output=True, text=True

@@ -136,15 +136,9 @@ def command(ns: Any) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m damjax.ensemble`` (the same as ``damjax ensemble``)."""
-    import argparse
-    import sys
+    from damjax._commands import Parser
 
-    class _Parser(argparse.ArgumentParser):
-        def error(self, message: str) -> None:
-            sys.stderr.write(f"damjax: error: {message}\n")
-            sys.exit(2)
-
-    p = _Parser(prog="damjax ensemble", description=DESCRIPTION)
+    p = Parser(prog="damjax ensemble", description=DESCRIPTION)
     add_arguments(p)
     try:
         ns = p.parse_args(argv)
