@@ -165,5 +165,7 @@ def test_the_shipped_avakot_release_can_only_be_bounded_by_its_buffer():
 
     row = st.measure("avaKot", 150.0)
     assert row["dem"] == "shipped" and row["friction_deg"] == 27.0
+    assert row["max_slope_deg"] == 60.0  # the scenario's snow limit, unless --max-slope
+    assert st.with_buffer("real-path-avakot", 150.0, max_slope=55.0).snow["max_slope_deg"] == 55
     assert 0.9 * row["snow_m2"] < row["sliding_region_m2"] <= row["snow_m2"]
     assert 0.3 < row["sliding_region_edge_fraction"] < 0.4 and row["warns_before_run"]

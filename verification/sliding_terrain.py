@@ -19,6 +19,7 @@ without a run. One JSON line per (path, buffer), printed and appended to
 
     python -m verification.sliding_terrain           # 150, 300, 600 m, the whole DEM (10 km)
     python -m verification.sliding_terrain --path avaAlr --buffers 150 1000
+    python -m verification.sliding_terrain --max-slope 55   # SLF's upper cut
     python -m verification.sliding_terrain --path avaAlr --field-dx 2 \
         --dem AVAFRAME/avaframe/data/avaAlr/Inputs/avaAlr.tif  # AvaFrame's whole DEM
 
@@ -45,13 +46,18 @@ WHOLE_DEM = 10000.0  # [m] a buffer beyond every DEM of these paths (AvaFrame's:
 
 
 def with_buffer(
-    name: str, buffer: float, dem: str | None = None, field_dx: float | None = None
+    name: str,
+    buffer: float,
+    dem: str | None = None,
+    field_dx: float | None = None,
+    max_slope: float | None = None,
 ) -> Any:
     """The shipped scenario ``name`` with ``terrain.buffer`` [m] (its domain made anew)
     and, given, another DEM file of the same CRS (``dem``: e.g. AvaFrame's whole DEM of
     the path, of which the shipped one is a crop); ``field_dx`` [m]: the grid of the
     stability field, which here only places the trigger (None: the scenario's, the run's
-    grid; a coarser one where a large domain's field would not fit)."""
+    grid; a coarser one where a large domain's field would not fit); ``max_slope`` [deg]:
+    the snow cover's upper slope limit (None: the scenario's 60 deg)."""
     from damjax import scenario as scenarios
 
     with warnings.catch_warnings():
@@ -65,6 +71,8 @@ def with_buffer(
             doc["terrain"]["file"] = str(Path(dem).resolve())
         if field_dx is not None:
             doc["strength"]["field_dx"] = float(field_dx)
+        if max_slope is not None:
+            doc["snow"]["max_slope_deg"] = float(max_slope)
         # set by the polygon and its buffer: made anew
         doc["terrain"].pop("origin", None)
         for key in ("length", "width", "start"):
@@ -73,7 +81,11 @@ def with_buffer(
 
 
 def measure(
-    path: str, buffer: float, dem: str | None = None, field_dx: float | None = None
+    path: str,
+    buffer: float,
+    dem: str | None = None,
+    field_dx: float | None = None,
+    max_slope: float | None = None,
 ) -> dict[str, Any]:
     """One row: the domain's snow, its share below the friction angle, and the start's
     sliding region with its share of boundary on the domain's edge."""
@@ -81,7 +93,7 @@ def measure(
     from damjax.slope.simulation import domain_edge_fraction, sliding_region
 
     t0 = time.perf_counter()
-    scn = with_buffer(f"real-path-{path.lower()}", buffer, dem, field_dx)
+    scn = with_buffer(f"real-path-{path.lower()}", buffer, dem, field_dx, max_slope)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         prep = scenarios.prepared(scn)
@@ -102,6 +114,7 @@ def measure(
         "field_dx_m": field_dx,
         "start_m": [round(float(c), 2) for c in prep.setup.start],
         "friction_deg": phi,
+        "max_slope_deg": float(scn.snow.get("max_slope_deg", 60.0)),
         "domain_m": [round(float(prep.setup.length), 1), round(float(prep.setup.width), 1)],
         "snow_m2": round(float(snow.sum()) * cell),
         "snow_at_or_below_friction_share": round(gentle, 4),
@@ -139,6 +152,13 @@ def main(argv: list[str] | None = None) -> None:
         help="grid of the stability field [m], which places the trigger (default: the "
         "scenario's; a coarser one where a whole DEM's field would not fit)",
     )
+    ap.add_argument(
+        "--max-slope",
+        type=float,
+        default=None,
+        help="no snow steeper than this [deg] (default: the scenario's 60; SLF's "
+        "release-area method cuts at 55)",
+    )
     ap.add_argument("--no-write", action="store_true", help="print only")
     args = ap.parse_args(argv)
     from benchmarks.cases import git_commit
@@ -152,9 +172,11 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"--buffers {' '.join(map(str, args.buffers))}: each must be > 0 m")
     if args.field_dx is not None and not args.field_dx > 0:
         raise SystemExit(f"--field-dx {args.field_dx}: must be > 0 m")
+    if args.max_slope is not None and not 0 < args.max_slope <= 90:
+        raise SystemExit(f"--max-slope {args.max_slope}: must be in (0, 90] deg")
     for path in PATHS if args.path == "all" else (args.path,):
         for buffer in args.buffers:
-            row = measure(path, buffer, args.dem, args.field_dx)
+            row = measure(path, buffer, args.dem, args.field_dx, args.max_slope)
             row.update(date=date, commit=commit)
             print(json.dumps(row), flush=True)
             if not args.no_write:
