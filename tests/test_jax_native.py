@@ -72,6 +72,23 @@ def test_pst_grad_vmap_jit_match_the_layout_api_and_sweep():
         assert concrete.setup.dtype == "float64" and concrete.sigma_xx.dtype == np.float64
 
 
+def test_pst_hessian_matches_finite_differences_of_the_gradient():
+    """jax.hessian (forward over reverse through the scan and the transfers' batching
+    rules, which JAX's derivative of a custom_vmap calls with nothing batched) equals a
+    central difference of jax.grad (float64)."""
+    with jax.enable_x64(True):
+        setup = _pst_setup()
+
+        def f(th):
+            return damjax.simulate_pst(_with_theta(th), setup).arrest_position_smooth
+
+        h = float(jax.hessian(f)(3000.0))
+        g = jax.grad(f)
+        fd = (float(g(3001.0)) - float(g(2999.0))) / 2.0
+        assert h != 0.0
+        assert h == pytest.approx(fd, rel=1e-5)
+
+
 def test_traced_pst_errors_say_what_to_do():
     with jax.enable_x64(True):
         setup = _pst_setup()

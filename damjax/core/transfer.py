@@ -163,6 +163,8 @@ def _flat_scatter(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any, vals: Any) -> Any:
+        if not any(in_batched):  # see `_take`'s rule
+            return _plain_scatter(grid, idx, vals), False
         # 64-bit carriers of the fixed-point sums (float64, int64) may reach
         # this rule outside the caller's x64 scope (a vmapped scan batches its body later)
         dt = np.dtype(vals.dtype)
@@ -208,6 +210,11 @@ def _take(n_nodes: int) -> Any:
 
     @flat.def_vmap
     def _rule(axis_size: int, in_batched: Any, grid: Any, idx: Any) -> Any:
+        # JAX's derivative of a custom_vmap calls its rule with nothing batched where
+        # only the tangents are (forward over reverse under a scan: jax.hessian,
+        # jax.jacfwd(jax.grad(f))): then the plain op, unbatched
+        if not any(in_batched):
+            return plain(grid, idx), False
         grid, idx = (
             _batched(grid, in_batched[0], axis_size),
             _batched(idx, in_batched[1], axis_size),
