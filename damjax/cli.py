@@ -394,7 +394,10 @@ def _interrupted(out: Any) -> int:
     if (out / runner.CHECKPOINT).is_file():
         sys.stderr.write(f"damjax: interrupted; continue with: damjax resume {out}\n")
     else:
-        sys.stderr.write("damjax: interrupted (no checkpoint written)\n")
+        sys.stderr.write(
+            "damjax: interrupted (no checkpoint written: --checkpoint-every SECONDS keeps "
+            "one to resume from)\n"
+        )
     return 130
 
 
@@ -573,7 +576,12 @@ def build_parser() -> argparse.ArgumentParser:
         "release.gif).",
     )
     p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
-    p.add_argument("--out", metavar="DIR", help="output folder (default ./damjax-out/<name>)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="output folder (default ./damjax-out/<name>); a finished run's files there are "
+        "replaced (with a warning if it was another scenario's)",
+    )
     p.add_argument(
         "--release-area",
         metavar="FILE",

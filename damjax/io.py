@@ -300,6 +300,16 @@ def write_dataset(path: str | os.PathLike[str], ds: Any, engine: str | None = No
         ds.to_netcdf(tmp, engine=engine, format=fmt)
 
 
+def dataset_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A results file's global attributes, without reading its variables."""
+    import xarray as xr
+
+    with open(path, "rb") as fh:
+        engine = "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
+    with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
+        return dict(ds.attrs)
+
+
 def open_dataset(path: str | os.PathLike[str]) -> Any:
     """Read a results file fully into memory (no time decoding: times are seconds).
 

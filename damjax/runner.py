@@ -125,6 +125,7 @@ class _Recorder:
         self.out_dir, self.scn, self.n_chunks = out_dir, scn, n_chunks
         self.every, self.on_chunk = every, on_chunk
         self.last: _Record | None = None
+        self.inputs: str | None = None  # JSON of input_digests, made at the first save
         self.saved_chunk = -1
         self.t_saved = _time.monotonic()
 
@@ -155,6 +156,9 @@ class _Recorder:
             "checkpoint_every": np.array(np.nan if self.every is None else self.every),
             "tips": np.stack(rec.tips),
         }
+        if self.inputs is None:
+            self.inputs = json.dumps(input_digests(self.scn))
+        arrays["inputs"] = np.array(self.inputs)
         arrays.update(rec.state)
         if rec.snaps:
             for key in rec.snaps[0]:
@@ -163,6 +167,77 @@ class _Recorder:
         self.saved_chunk = rec.chunk
         self.t_saved = _time.monotonic()
         return True
+
+
+# a shapefile's attributes, index and projection live beside its .shp
+_SIDECARS = {".shp": (".dbf", ".shx", ".prj", ".cpg")}
+
+
+def input_files(scn: Scenario) -> list[Path]:
+    """The files a scenario reads (a DEM, a release polygon with its sidecar files,
+    snow rasters, masks, tables): each string of it that is the absolute path of a file
+    (a loaded scenario holds its files' paths resolved)."""
+    found: list[Path] = []
+
+    def walk(v: Any) -> None:
+        if isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                walk(x)
+        elif isinstance(v, str) and 0 < len(v) < 4096 and os.path.isabs(v):
+            p = Path(v)
+            if p.is_file():
+                found.append(p)
+                for ext in _SIDECARS.get(p.suffix.lower(), ()):
+                    side = p.with_suffix(ext)
+                    if side.is_file():
+                        found.append(side)
+
+    walk(scn.to_dict())
+    return sorted(set(found))
+
+
+def input_digests(scn: Scenario) -> dict[str, str]:
+    """``{path: sha256}`` of `input_files`: a checkpoint keeps them, so that a resume
+    notices a file that changed (the run would mix two terrains)."""
+    return _digests(input_files(scn))
+
+
+def _check_inputs(path: Path, ck: dict[str, np.ndarray]) -> None:
+    """ValueError if a file the checkpointed run read is gone or has changed."""
+    if "inputs" not in ck:  # a checkpoint of an earlier version
+        return
+    recorded = json.loads(str(ck["inputs"]))
+    problems = []
+    for name, digest in recorded.items():
+        f = Path(name)
+        if not f.is_file():
+            problems.append(f"{name}: read by the checkpointed run, no longer there")
+            continue
+        now = _digests([f])[name]
+        if now != digest:
+            problems.append(f"{name}: changed since the run was checkpointed")
+    if problems:
+        raise ValueError(
+            "\n".join(problems)
+            + f"\n{path}: a resumed run would mix the old inputs with the new; restore "
+            f"them, or start afresh (delete {path} and run the scenario again)"
+        )
+
+
+def _digests(paths: list[Path]) -> dict[str, str]:
+    import hashlib
+
+    out = {}
+    for p in paths:
+        h = hashlib.sha256()
+        with open(p, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        out[str(p)] = h.hexdigest()
+    return out
 
 
 def _version() -> str:
@@ -218,10 +293,17 @@ def run(
     out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
     _make_out(out)
     if (out / CHECKPOINT).exists():
-        raise ValueError(
-            f"{out}: holds an unfinished run's {CHECKPOINT}; `damjax resume {out}` "
-            f"continues it (delete {out / CHECKPOINT} to start this run afresh there)"
+        other = _checkpointed_scenario(out / CHECKPOINT)
+        which = (
+            "an unfinished run's"
+            if other is None or other == scn.to_toml()
+            else "an unfinished run of another scenario (or of this one edited since) in its"
         )
+        raise ValueError(
+            f"{out}: holds {which} {CHECKPOINT}; `damjax resume {out}` continues that run "
+            f"(give another --out, or delete {out / CHECKPOINT} to start this one afresh there)"
+        )
+    _note_replaced(out, scn)
     io.remove_stale_temporaries(out)
     for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
         (out / name).unlink(missing_ok=True)
@@ -234,6 +316,34 @@ def run(
     result = _simulate(scn, rec, progress)
     phases = {"layout_s": t1 - t0, "simulate_s": _time.perf_counter() - t1}
     return _finish(scn, out, result, rec, None, phases)
+
+
+def _checkpointed_scenario(path: Path) -> str | None:
+    """The scenario (TOML text) a checkpoint holds; None if it cannot be read."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return str(data["scenario"])
+    except Exception:  # a damaged checkpoint: `resume` names what is wrong with it
+        return None
+
+
+def _note_replaced(out: Path, scn: Scenario) -> None:
+    """Warn when ``out`` holds the finished run of another scenario: its files are
+    replaced (a mistyped --out would otherwise lose a long run without a word)."""
+    if not (out / RESULTS).is_file():
+        return
+    try:
+        attrs = io.dataset_attrs(out / RESULTS)
+        old = str(attrs.get("scenario", ""))
+    except Exception:  # not ours or damaged: replaced as before
+        old = ""
+    if old and old != scn.to_toml():
+        name = str(attrs.get("title", "")).rsplit(" ", 1)[-1] or "?"
+        warnings.warn(
+            f"{out}: held a finished run of scenario '{name}' with other settings than "
+            "this one's; its files are replaced by this run's",
+            stacklevel=3,
+        )
 
 
 def _check_every(every: Any, allow_keep: bool = False) -> None:
@@ -277,19 +387,38 @@ def resume(
     _check_every(checkpoint_every, allow_keep=True)
     out = Path(out_dir)
     path = out / CHECKPOINT
+    if out.is_file():
+        raise ValueError(f"{out}: a file; give the folder of the run to resume (its --out)")
     if not out.is_dir():
         raise ValueError(f"{out}: no such folder (the --out of the run to resume)")
     if not path.is_file():
-        finished = (out / SUMMARY).is_file()
-        why = "the run there finished" if finished else "the run there never checkpointed"
+        from damjax.ensemble.products import ENSEMBLE_FILE, SLICE_DIR
+
+        if (out / SUMMARY).is_file():
+            why = "the run there finished"
+        elif (out / ENSEMBLE_FILE).is_file() or (out / SLICE_DIR).is_dir():
+            why = (
+                "an ensemble's folder: `damjax ensemble SCENARIO --out "
+                f"{out}` runs its missing members"
+            )
+        else:
+            why = (
+                "no run there wrote one: an interrupted run leaves a checkpoint only with "
+                "--checkpoint-every (checkpoint_every)"
+            )
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
     ck = _read(io.read_npz, path, "checkpoint")
     if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
+    _check_inputs(path, ck)
     try:
         scn, chunk, state, tips, snaps = _read_checkpoint(path, ck)
     except (KeyError, IndexError, TypeError) as exc:
         raise ValueError(f"{path}: incomplete checkpoint (no {exc})") from None
+    except ValueError as exc:  # a scenario or state that does not fit: name the file
+        if str(path) in str(exc):
+            raise
+        raise ValueError(f"{path}: {exc}") from None
     if checkpoint_every is not None and checkpoint_every < 0:
         saved = float(ck.get("checkpoint_every", np.nan))
         checkpoint_every = None if np.isnan(saved) else saved
@@ -503,7 +632,7 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
 def load_final_state(out_dir: str | os.PathLike[str]) -> Any:
     """The final `State` of a finished run (``final_state.npz``; PST or slope)."""
     path = Path(out_dir) / RESULTS
-    text = io.open_dataset(path).attrs.get("scenario", "") if path.is_file() else ""
+    text = str(io.dataset_attrs(path).get("scenario", "")) if path.is_file() else ""
     if 'type = "slope"' in text:
         scn = scenario.loads(text, warn=False)
     else:

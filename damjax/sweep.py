@@ -301,7 +301,7 @@ def sweep(
     info.compile_time_s = time.perf_counter() - t0
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from damjax._progress import progress_bar as tqdm
 
         bar = tqdm(total=layout.n_steps, unit="step", unit_scale=True, desc=f"sweep x{n}")
     tips, snaps = [], []

@@ -198,6 +198,21 @@ def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
     ):
         runner.run(scn, out)
     assert (out / runner.CHECKPOINT).exists()
+    # ... and the scenario edited since: said, since `resume` would run the old one
+    edited = scenario.loads(scn.to_toml().replace("duration = 3.0", "duration = 2.0"))
+    with pytest.raises(ValueError, match="holds an unfinished run of another scenario"):
+        runner.run(edited, out)
+    # resume of a file or of a folder that never held a checkpoint: what to do instead
+    with pytest.raises(ValueError, match="a file; give the folder of the run"):
+        runner.resume(ref.out_dir / runner.RESULTS)
+    with pytest.raises(ValueError, match="only with --checkpoint-every"):
+        runner.resume(tmp_path / "none")
+    # a finished run of another scenario in the folder: replaced, with a warning
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / runner.RESULTS).write_bytes((ref.out_dir / runner.RESULTS).read_bytes())
+    with pytest.warns(UserWarning, match="held a finished run of scenario 'restart' with other"):
+        runner.run(edited, other)
 
     # resume, interrupt again (every chunk checkpointed now), resume to the end
     with pytest.raises(KeyboardInterrupt):
@@ -375,3 +390,32 @@ def test_damaged_or_unfinished_folders_give_one_line_errors(tmp_path, capsys):
     (d / "checkpoint.npz").write_bytes(b"PK")  # an unfinished run's folder
     assert main(["show", str(d)]) == 2
     assert "an unfinished run" in capsys.readouterr().err
+
+
+def test_a_resume_refuses_inputs_that_changed_or_went(tmp_path):
+    """A checkpoint keeps the sha256 of each file its scenario reads (a DEM, a polygon
+    with its sidecar files, rasters): a resume after one changed would mix two terrains."""
+
+    class Scn:  # the part of a Scenario that input_files reads
+        def __init__(self, d):
+            self.d = d
+
+        def to_dict(self):
+            return self.d
+
+    dem, shp, dbf = tmp_path / "dem.asc", tmp_path / "rel.shp", tmp_path / "rel.dbf"
+    for f in (dem, shp, dbf):
+        f.write_text(f.name)
+    scn = Scn({"terrain": {"kind": "dem", "file": str(dem), "release": str(shp)}, "x": "dem.asc"})
+    assert runner.input_files(scn) == sorted([dem, shp, dbf])  # relative strings: not files
+    ck = {"inputs": np.array(json.dumps(runner.input_digests(scn)))}
+    path = tmp_path / runner.CHECKPOINT
+    runner._check_inputs(path, ck)  # unchanged: nothing to say
+    dbf.write_text("thickness 2 m")
+    with pytest.raises(ValueError, match=r"rel\.dbf: changed since the run was checkpointed"):
+        runner._check_inputs(path, ck)
+    dbf.write_text("rel.dbf")
+    dem.unlink()
+    with pytest.raises(ValueError, match=r"dem\.asc: read by the checkpointed run, no longer"):
+        runner._check_inputs(path, ck)
+    runner._check_inputs(path, {})  # a checkpoint written before the digests: not checked

@@ -194,7 +194,7 @@ def invert(
     hist = []
     it: Any = range(steps)
     if progress:
-        from tqdm.auto import tqdm
+        from damjax._progress import progress_bar as tqdm
 
         it = tqdm(it, desc="invert")
     best_x, best, best_step = x, math.inf, 0

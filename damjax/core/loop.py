@@ -187,7 +187,7 @@ def integrate(
     snaps: list[Any] = list(history[1]) if history is not None else []
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from damjax._progress import progress_bar as tqdm
 
         bar = tqdm(
             total=n_chunks * chunk_steps,

@@ -373,6 +373,14 @@ def _run_locked(
     # what is left: the scan is done by every process before any writes again
     all_slices = plan.slices(ens.members)
     done = done_slices(out)
+    for p in done.values():  # a damaged slice stops the run now, not after the others
+        try:
+            io.dataset_attrs(p)
+        except Exception as exc:
+            raise ValueError(
+                f"{p}: not a readable slice ({type(exc).__name__}); delete it and run "
+                "again: its members are run anew"
+            ) from None
     distributed.barrier("damjax-ensemble-scan")
     # by member, not by slice: a grown ensemble's plan may cut its slices elsewhere than
     # the earlier run did (3 members in slices of 2, then 4: members 2-3 of the new plan,
@@ -387,7 +395,7 @@ def _run_locked(
 
     bar = None
     if progress and mine:
-        from tqdm.auto import tqdm
+        from damjax._progress import progress_bar as tqdm
 
         bar = tqdm(
             total=sum(b - a for a, b in mine) * layout.n_steps,
