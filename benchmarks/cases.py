@@ -273,7 +273,7 @@ _SLOPE_KEYS = (
 
 def slope_row(case_name: str, case, params=None) -> dict:
     """One JSON row of a generic-slope run (`damjax.slope.generic`); `params`
-    defaults to the paper's Fig. 12 slab (`fig12_params`)."""
+    defaults to the paper's Fig. 13 slab (`fig12_params`)."""
     from damjax.slope.generic import run_generic_slope
 
     s = run_generic_slope(case, params).summary
@@ -293,7 +293,7 @@ def slope_row(case_name: str, case, params=None) -> dict:
 
 @case
 def slope() -> None:
-    """The paper's Fig. 12a slope (50 m x 60 m, dx 0.2 m, 75 000 particles, 2 s, seed 0)."""
+    """The paper's Fig. 13a slope (50 m x 60 m, dx 0.2 m, 75 000 particles, 2 s, seed 0)."""
     import os
 
     from damjax.slope.generic import GenericSlopeCase
@@ -306,7 +306,7 @@ def slope() -> None:
 
 @case
 def ensemble16() -> None:
-    """16 Fig. 12a members: one ensemble vs 16 runs; 2 processes vs 1 (~20 min on 2 cores)."""
+    """16 Fig. 13a members: one ensemble vs 16 runs; 2 processes vs 1 (~20 min on 2 cores)."""
     from benchmarks import ensemble16 as e
 
     for row in e.rows():
@@ -354,7 +354,7 @@ def slope_large() -> None:
 
 @case
 def real_path_member() -> None:
-    """A real-path member end to end against the Fig. 12a slope (avaAlr: ~10 min on 2 cores).
+    """A real-path member end to end against the Fig. 13a slope (avaAlr: ~10 min on 2 cores).
 
     One member of a shipped real path (avaAlr, or DAMJAX_REAL_PATH=avaKot), with the Fig.
     12a slope and that slope widened to the path's particle count, in one process.
@@ -392,7 +392,7 @@ def real_path_member() -> None:
     wall = time.perf_counter() - t0
     s = res.summary
     n_p, n_s = int(s["n_particles"]), int(s["n_steps"])
-    # the Fig. 12a slope as wide as gives the path's particle count (same dx and profile):
+    # the Fig. 13a slope as wide as gives the path's particle count (same dx and profile):
     # what the size alone costs
     width = max(fig12a.width, round(n_p * fig12a.dx**2 / fig12a.length / 10.0) * 10.0)
     wide = dataclasses.replace(fig12a, width=width, duration=0.02 if dry else 0.2)
@@ -445,7 +445,7 @@ def real_path_member() -> None:
 
 
 def _slope_model(case) -> tuple:
-    """Model and initial state of a generic slope (`damjax.slope.generic`, the Fig. 12 slab)."""
+    """Model and initial state of a generic slope (`damjax.slope.generic`, the Fig. 13 slab)."""
     from damjax.slope import generic, simulation
 
     psi, tau = generic.slope_field(case), generic.strength_field(case)

@@ -1,4 +1,4 @@
-"""Slope ensemble throughput: 16 members of the paper's Fig. 12a generic slope (50 m x 60 m,
+"""Slope ensemble throughput: 16 members of the paper's Fig. 13a generic slope (50 m x 60 m,
 dx 0.2 m, 1 particle per cell, 2 s; the shipped ``slope-generic-50x60`` with its GRF seeds
 0..15) as one `damjax.ensemble` against 16 sequential `simulate_slope` runs of the same
 member scenarios, and the same ensemble on two processes (`jax.distributed` on localhost)

@@ -16,7 +16,7 @@ prints one line with ``error``. The parts:
 - ``environment``: the device, versions, XLA flags, and whether the setups have the
   ``accumulation`` option (deterministic fixed-point particle-to-grid sums);
 - ``pst_f32``: the full baseline PST (100 m, dx 0.02 m, 3 s, float32), `cases._pst_row`;
-- ``slope``: the paper's Fig. 12a slope (75 000 particles, 2 s), `cases.slope_row`;
+- ``slope``: the paper's Fig. 13a slope (75 000 particles, 2 s), `cases.slope_row`;
 - ``slope_1m``: the same slope at dx 0.05 m (1.2 M particles): cost per particle-step;
 - ``repeat``: two baseline PSTs in one process: bitwise equal? max |slip difference|;
 - ``pst_grad``: gradient / forward time of the baseline PST (`cases.pst_grad`);
@@ -24,7 +24,7 @@ prints one line with ``error``. The parts:
   four fields: all AD values finite, and AD within 10 % of the event-based slope;
 - ``accumulation``: "fixed" against "float" on pst_f32 and the slope (time ratio), where
   the option exists;
-- ``ensemble16``: 16 Fig. 12a members as one ensemble against 16 sequential runs
+- ``ensemble16``: 16 Fig. 13a members as one ensemble against 16 sequential runs
   (`benchmarks.ensemble16`'s parts);
 - ``pst_f32_old``: the baseline PST of this checkout against the code of an older commit
   (``OLD_COMMIT``, the code of the 2026-11-26 H200 figures), alternated, each run in its

@@ -601,7 +601,7 @@ def run_case(
 
 
 def _fig12a_slope() -> tuple[Any, Any, Any, Any, Any]:
-    """The Fig. 12a slope of ``python -m benchmarks slope`` (2 s, one particle per cell):
+    """The Fig. 13a slope of ``python -m benchmarks slope`` (2 s, one particle per cell):
     (case, params, slope field, strength field, start)."""
     from damjax.slope import generic
 
@@ -614,7 +614,7 @@ def _fig12a_slope() -> tuple[Any, Any, Any, Any, Any]:
 def step_rows(cases: tuple[str, ...] = ("pst", "slope"), rounds: int = 7) -> list[dict]:
     """The damjax time step (`damjax.core.loop.run_chunk`) with ``accumulation`` "fixed"
     and "float", compiled once each and timed alternately (``rounds`` rounds of a
-    500-step chunk for the 1D baseline PST, 50 steps for the Fig. 12a slope): wall and
+    500-step chunk for the 1D baseline PST, 50 steps for the Fig. 13a slope): wall and
     process CPU time per step, medians and minima, and the fixed / float ratio."""
     import dataclasses
 
@@ -669,7 +669,7 @@ def step_rows(cases: tuple[str, ...] = ("pst", "slope"), rounds: int = 7) -> lis
 def run_rows(rounds: int = 4, cases: tuple[str, ...] = ("pst_f32", "slope")) -> list[dict]:
     """Whole runs, "fixed" and "float" alternated in one process (the order flips every
     round), after one warm-up run each (compilation): the baseline PST of ``python -m
-    benchmarks pst_f32`` and the Fig. 12a slope of ``python -m benchmarks slope``; wall
+    benchmarks pst_f32`` and the Fig. 13a slope of ``python -m benchmarks slope``; wall
     times from the runs' summaries (time loop only), medians, minima and the ratio."""
     import dataclasses
 

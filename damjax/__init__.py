@@ -46,3 +46,29 @@ __all__ = [
     "last_sweep_plan",
     "theory",
 ]
+
+# submodules that `import damjax` does not load (optional dependencies, or seldom used),
+# reached as attributes on first use: `damjax.distributed.sweep(...)` after `import damjax`
+_LAZY = frozenset(
+    {
+        "distributed",
+        "ensemble",
+        "export",
+        "fields",
+        "io",
+        "release_area",
+        "sensitivity",
+        "snow_cover",
+        "snow_profiles",
+        "terrain",
+        "validation",
+    }
+)
+
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        import importlib
+
+        return importlib.import_module(f"damjax.{name}")
+    raise AttributeError(f"module 'damjax' has no attribute {name!r}")

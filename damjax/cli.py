@@ -177,7 +177,7 @@ def _add_pst_flags(p: argparse.ArgumentParser) -> None:
         default="none",
         help="none (default): the CSV is tau_p(x) along the PST; linear/power_law: the CSV "
         "is a measured transect, fitted, shifted to --tau-peak at --steady-length and "
-        "extrapolated over the PST (paper Figs. 10-11)",
+        "extrapolated over the PST (paper Figs. 11-12)",
     )
     g = p.add_argument_group("numerics")
     for spec in _SETUP_FLAGS:
@@ -572,8 +572,8 @@ def build_parser() -> argparse.ArgumentParser:
         "run",
         help="run a scenario file (or a shipped scenario by name)",
         description="Run a scenario and write results.nc, summary.json, final_state.npz "
-        "and pst.png into DIR (slope scenarios: results.nc, summary.json, slope.png and "
-        "release.gif).",
+        "and pst.png into DIR (slope scenarios: results.nc, summary.json, final_state.npz, "
+        "slope.png and release.gif).",
     )
     p.add_argument("scenario", help="TOML file or shipped name (see `damjax scenarios`)")
     p.add_argument(

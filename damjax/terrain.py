@@ -6,7 +6,7 @@ arrays: DEM preprocessing happens once, before anything is traced, and float64 k
 millimetre differences of kilometre elevations. x and y are horizontal map coordinates
 (east, north for a DEM); for the generic slopes x points up-slope, as in a PST.
 
-- `generic_slope`: the paper's 50 m x 60 m (or 100 m) slopes (Fig. 12): a concave toe up to
+- `generic_slope`: the paper's 50 m x 60 m (or 100 m) slopes (Fig. 13): a concave toe up to
   35 deg and a convex roll at the top, from the analytic angle profile `generic_slope_angle`.
 - `pst_slope_angle`: a slope angle psi(x) along a 1D PST with a convex roll.
 - `load_esri_ascii`, `load_netcdf`, `load_geotiff` (rasterio, optional), `load_dem`, and
@@ -252,7 +252,7 @@ def generic_slope_angle(
     R the half-cosine ramp from 0 to 1: a concave toe (psi rising from psi_toe at s = 0 to
     psi_max at s = L_toe), a planar part at psi_max, and a convex roll (psi falling to
     psi_top at the top, s = L). psi is C1, so the surface curvature is continuous. The
-    paper (Fig. 12) gives only "a concave toe reaching 35 deg and a convex roll at the
+    paper (Fig. 13) gives only "a concave toe reaching 35 deg and a convex roll at the
     top"; the toe, roll and end angles are our choice.
 
     Args:
@@ -296,7 +296,7 @@ def generic_slope(
     toe_length: float = 10.0,
     roll_length: float = 10.0,
 ) -> Terrain:
-    """The paper's generic slope (Fig. 12) as a height field: uniform across, x up-slope.
+    """The paper's generic slope (Fig. 13) as a height field: uniform across, x up-slope.
 
     The angle profile `generic_slope_angle` is integrated numerically (trapezoid rule on a
     1 cm grid): with s the surface distance from the toe, dx/ds = cos psi, dz/ds = sin psi

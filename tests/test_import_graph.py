@@ -183,3 +183,22 @@ def test_the_core_imports_nothing_from_validation():
     core = [m for m in graph if m.startswith("damjax.core")]
     assert core
     assert not [(m, t) for m in core for t in graph[m] if t == "damjax.validation"]
+
+
+def test_submodules_the_docs_name_are_attributes_after_import_damjax():
+    """`damjax.distributed.sweep`, `damjax.export.gis.export_gis`, ... work after a plain
+    `import damjax` (a fresh interpreter: nothing else imported them before)."""
+    import subprocess
+    import sys
+
+    names = [
+        "damjax.distributed.sweep",
+        "damjax.release_area.read_release_area",
+        "damjax.export.gis.export_gis",
+        "damjax.export.avaframe.export_avaframe",
+        "damjax.ensemble.run",
+        "damjax.snow_profiles",
+    ]
+    code = "import damjax\n" + "\n".join(f"assert {n} is not None" for n in names)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-2000:]

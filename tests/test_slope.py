@@ -234,7 +234,7 @@ def test_shipped_fig12a_scenario_is_the_papers_case():
     assert np.allclose(strength_field(case), tau, atol=1e-3)
     assert weak_spot(case, tau) == pytest.approx(start)
     assert np.allclose(slope_field(case), slope, atol=1e-4)
-    # Fig. 12b: 50 m down-slope, 100 m across, strength rising across from y = 100 m, the
+    # Fig. 13b: 50 m down-slope, 100 m across, strength rising across from y = 100 m, the
     # start near the top right corner; the TOML and FIG12B agree
     wide = scenario.load("slope-generic-50x100", warn=False)
     assert (wide.setup.length, wide.setup.width) == (50.0, 100.0)
@@ -483,7 +483,7 @@ def _roll_params(top_deg: float, **kw) -> PSTParams:
 
 
 def test_pst_on_a_convex_roll_arrests_where_the_plane_does_not():
-    """Terrain-driven arrest: uniform strength (1 kPa everywhere), the Fig. 12 slab
+    """Terrain-driven arrest: uniform strength (1 kPa everywhere), the Fig. 13 slab
     (sigma_t = 4 kPa, delta = 1); on a 35 deg plane the crack runs through 40 m, on a
     convex roll from 35 to 20 deg (x = 12-20 m) it arrests after one slab fracture
     (measured 23.8 m). The paper's perfectly plastic slab: the brittle crack-band slab

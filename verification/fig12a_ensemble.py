@@ -1,4 +1,4 @@
-"""The paper's Fig. 12a slope as a release-probability ensemble: the shipped
+"""The paper's Fig. 13a slope as a release-probability ensemble: the shipped
 ``slope-generic-50x60`` scenario (50 m x 60 m, dx 0.2 m, 4 s, GRF std 100 Pa, 8 m) for 32
 GRF seeds, as ``damjax ensemble slope-generic-50x60 --members 32`` runs it, and a set of
 its members run again one by one with `damjax.scenario.slope_fields.simulate`.

@@ -329,7 +329,7 @@ def weac() -> str:
 
 @figure
 def slopes() -> str:
-    """Fig. 12a: a release map (small run, dx 0.4 m) and the stored arrests at dx 0.2 m."""
+    """Fig. 13a: a release map (small run, dx 0.4 m) and the stored arrests at dx 0.2 m."""
     from damjax import runner, scenario
 
     plt = _plt()
@@ -371,7 +371,7 @@ def slopes() -> str:
     ax1.invert_yaxis()
     ax1.set_xlabel("up-slope arrest distance from the start [m]")
     ax1.set_title("stored rows, dx 0.2 m, 4 s\nshaded: the paper's 40-50 m")
-    fig.suptitle("Generic slope 50 m x 60 m (paper Fig. 12a)", y=0.99)
+    fig.suptitle("Generic slope 50 m x 60 m (paper Fig. 13a)", y=0.99)
     return _save(fig, "slopes", f"left: slope-generic-50x60 at dx {dx} m, 4 s; right: stored rows")
 
 

@@ -1,4 +1,4 @@
-"""Paper Fig. 12a's generic slope over 5 GRF seeds, and 2 controls.
+"""Paper Fig. 13a's generic slope over 5 GRF seeds, and 2 controls.
 
 The 50 m x 60 m generic slope (`damjax.slope.generic.FIG12A`) and the two controls
 (the same slope without the up-slope trend; a planar 35 deg slope with the trend).

@@ -1,4 +1,4 @@
-"""Slope runs the docs quote: the paper's Fig. 12b and the grid check of the shipped slopes.
+"""Slope runs the docs quote: the paper's Fig. 13b and the grid check of the shipped slopes.
 
 - ``fig12b``: the shipped ``slope-generic-50x100`` as it is (dx 0.2 m, 4 s): its summary,
   the release's outline over time from the snapshots (``y_min_m``: the released weak layer
@@ -17,7 +17,7 @@ run's slope.png also becomes the page's figure (docs/images/slope_fig12b.png).
     python -m verification.slope_runs --only fig12b   # the 4 s run alone, about 8 min
 
 Cost on the 2-core development machine shared with other work (2026-11-27): the 4 s run
-of Fig. 12b 5.6 min of steps, its first 2 s at dx 0.1 m 11 min, the gully at dx 0.1 m
+of Fig. 13b 5.6 min of steps, its first 2 s at dx 0.1 m 11 min, the gully at dx 0.1 m
 5.7 min.
 """
 
@@ -35,7 +35,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "slope_runs.jsonl"
-FIGURE = ROOT / "docs" / "images" / "slope_fig12b.png"  # the Fig. 12b page's plot
+FIGURE = ROOT / "docs" / "images" / "slope_fig12b.png"  # the Fig. 13b page's plot
 OUTLINE_TIMES = (0.5, 0.7, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)  # [s]
 SUMMARY_KEYS = (
     "upslope_front",
@@ -92,7 +92,7 @@ def outline(ds: Any, times: tuple[float, ...] = OUTLINE_TIMES) -> list[dict[str,
 def speed_percentiles(ds: Any, start: list[float], cs: float) -> dict[str, list[float]]:
     """10 / 50 / 90 % of the crack-speed map over c_s below the start (x < 30 m, within
     15 m across of it), above it (x from 2 m above it to 2 m below the top) and across
-    (from 10 to 35 m across, x from 20 to 45 m): the regions of Fig. 12b."""
+    (from 10 to 35 m across, x from 20 to 45 m): the regions of Fig. 13b."""
     v = ds["crack_speed"].values / cs
     x, y = ds["x"].values, ds["y"].values
     X, Y = np.meshgrid(x, y, indexing="ij")

@@ -53,7 +53,7 @@ def resolve_accumulation(accumulation: str, backend: str | None = None) -> str:
     Both are deterministic where they are chosen: XLA:CPU adds a scatter's elements one
     after the other in the particles' order, so a CPU run repeats bitwise with float sums,
     which cost less there (their scatter moves half the bytes: mpm88 1.2-1.6 x faster,
-    the Fig. 12a slope up to 1.1 x; docs/performance/transfers.md); a GPU applies float
+    the Fig. 13a slope up to 1.1 x; docs/performance/transfers.md); a GPU applies float
     atomics in a varying order, and the fixed-point sums make its runs repeat. "fixed"
     everywhere also makes a run independent of the particles' order and gives CPU and GPU
     the same sums (not the same elementwise arithmetic)."""

@@ -49,7 +49,7 @@ PLAN_FILE = "plan.json"
 LOCK_FILE = ".damjax-ensemble.lock"  # held by the run writing into the folder
 MAX_PER_DEVICE = 8  # members per device and slice (resume granularity)
 # On a CPU device a vmapped slice of slope members ran slower per member than the members
-# one at a time (Fig. 12a slope, 0.3 s, 2 cores, 2026-11-25: 14 s per member vmapped by 2,
+# one at a time (Fig. 13a slope, 0.3 s, 2 cores, 2026-11-25: 14 s per member vmapped by 2,
 # 10 s sequential); CPU members run one per device, a host split into one device per core
 # (`damjax ensemble --cpu-devices`), the devices running their members side by side.
 

@@ -289,15 +289,15 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
         "members": members,
         "summaries": io.to_json(summaries),
         "key": key or parts[0].attrs.get("key", ""),
-        "Conventions": "CF-1.8",
+        "Conventions": "CF-1.10",
     }
     return ds
 
 
 def _version() -> str:
-    import damjax
+    from damjax._version import __version__
 
-    return damjax.__version__
+    return __version__
 
 
 def quantile_summary(ds: Any) -> dict[str, Any]:

@@ -17,3 +17,12 @@ Both read a slope run's folder (``results.nc`` written by ``damjax run``) or an 
 from __future__ import annotations
 
 __all__ = ["avaframe", "gis"]
+
+
+def __getattr__(name: str) -> object:
+    # `damjax.export.gis.export_gis(...)` without importing the submodule first
+    if name in __all__:
+        import importlib
+
+        return importlib.import_module(f"damjax.export.{name}")
+    raise AttributeError(f"module 'damjax.export' has no attribute {name!r}")

@@ -3,7 +3,7 @@
 - `grf`: Gaussian random fields (`grf`, `plateau_trend_field`, `correlation`);
 - `grf_fit`: their maximum-likelihood fit to a measured map (`fit_grf`, `GRFFit`);
 - `profiles`: PST strength profiles and their fits to measured transects (paper
-  Figs. 10-11: `linear_profile`, `power_law_profile`, `pst_strength_profile`, ...);
+  Figs. 11-12: `linear_profile`, `power_law_profile`, `pst_strength_profile`, ...);
 - `maps`: strength maps (CSV / NetCDF / GeoTIFF), `map_on_grid`, `transect`.
 
 Every public name is re-exported here: ``from damjax import fields; fields.grf(...)``.

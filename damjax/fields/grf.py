@@ -205,7 +205,7 @@ def grf(
         angle_deg: rotation of the first principal axis, counter-clockwise from x [deg].
         model: covariance model, ``"gaussian"`` or ``"exponential"``.
         trend: mean strength gradient [Pa/m], a scalar (along x) or ``(gx, gy)``; e.g. 20
-            for tau_p rising 20 Pa/m up-slope (paper Fig. 12).
+            for tau_p rising 20 Pa/m up-slope (paper Fig. 13).
         floor: samples are clipped from below at this value [Pa] (default 1 Pa: a strength
             must stay positive; the gradient is zero where clipped); None: no clipping, for
             a general-purpose field.
@@ -319,7 +319,7 @@ def plateau_trend_field(
     The distance is measured along the direction `trend_deg` [deg, counter-clockwise from
     +x, up-slope] from the edge of the area it starts at: 0 (default) is x, up-slope from
     the lower edge; 90 is y, across from the y = 0 edge; -90 across from the other edge
-    (y = ny dx) towards y = 0 (paper Fig. 12b: strength rising across the slope).
+    (y = ny dx) towards y = 0 (paper Fig. 13b: strength rising across the slope).
 
     ``field_dx`` [m]: draw the random part on cells of this size over the same extent and
     interpolate it bilinearly to the cells (None: on the cells themselves). A sample

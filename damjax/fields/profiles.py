@@ -1,4 +1,4 @@
-"""PST strength profiles tau_p(x) [Pa] along the PST [m] (paper Figs. 10-11).
+"""PST strength profiles tau_p(x) [Pa] along the PST [m] (paper Figs. 11-12).
 
 - `linear_profile`, `power_law_profile`: tau_p = tau_peak on [0, L_ss], rising beyond;
 - `fit_linear_profile`, `fit_power_law_profile`: least-squares fits to a measured transect;
@@ -60,7 +60,7 @@ def power_law_profile(
     tau_peak: ArrayLike = 1000.0,
     steady_length: ArrayLike = 20.0,
 ) -> Array:
-    """Power-law PST strength: tau_p = tau_peak + a (x - L_ss)^b beyond L_ss (paper Fig. 11).
+    """Power-law PST strength: tau_p = tau_peak + a (x - L_ss)^b beyond L_ss (paper Fig. 12).
 
     b = 1 is `linear_profile` with theta = a.
 
@@ -288,7 +288,7 @@ def pst_profile(
 ) -> np.ndarray:
     """A fitted transect shifted to tau_p = tau_peak at L_ss and extrapolated over a PST.
 
-    As in the paper's in-situ cases (Figs. 10b, 11b): tau_p = tau_peak on [0, L_ss] and
+    As in the paper's in-situ cases (Figs. 11b, 12b): tau_p = tau_peak on [0, L_ss] and
     tau_p = tau_peak + increment(x - L_ss) beyond, the increment being the fitted strength
     gain from the start of the transect (theta s, or a s^b), extended past the measured
     range. For a PST of length L on m equally spaced points, ``x = np.linspace(0, L, m)``
@@ -363,7 +363,7 @@ def pst_strength_profile(
     first/last value beyond them. With ``fit="linear"`` or ``"power_law"`` the file is a
     measured transect: the fit (`fit_linear_profile`, `fit_power_law_profile`) is shifted
     to tau_p = ``tau_peak`` at L_ss and extrapolated over the PST (`pst_profile`, the
-    paper's in-situ workflow, Figs. 10-11).
+    paper's in-situ workflow, Figs. 11-12).
 
     Args:
         path: CSV file.

@@ -35,7 +35,7 @@ Format (SI units throughout; angles in degrees)::
     fit = "none"                  # "none": the CSV is tau_p(x) along the PST (interpolated);
                                   # "linear" / "power_law": a measured transect, fitted,
                                   # shifted to params.tau_peak at params.steady_length and
-                                  # extrapolated over the PST (paper Figs. 10-11)
+                                  # extrapolated over the PST (paper Figs. 11-12)
     points = 5001                 # optional: samples over [0, L] (default L/dx + 1)
 
     [profile]                     # optional: the slab from a snow profile (type = "pst")

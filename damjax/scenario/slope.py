@@ -23,7 +23,7 @@ the lower edge, y across). Format (SI units, angles in degrees)::
 
     [terrain]                   # optional (default: kind = "plane")
     kind = "plane"              # "plane": slope_deg [deg] (default params.slope_deg)
-    # kind = "generic": the paper's Fig. 12 profile (damjax.terrain.generic_slope_angle)
+    # kind = "generic": the paper's Fig. 13 profile (damjax.terrain.generic_slope_angle)
     #   over the release length: max_slope_deg (35), toe_slope_deg (30),
     #   top_slope_deg (20), toe_length (10 m), roll_length (10 m)
     # kind = "dem": file (.asc ESRI ASCII grid, .nc NetCDF, .tif GeoTIFF with rasterio;

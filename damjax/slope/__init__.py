@@ -1,7 +1,7 @@
 """Slope-scale release on terrain: the shared 2D DA-MPM step over a release area.
 
 - `simulation`: `simulate_slope` (setup: `damjax.SlopeSetup`) and its `SlopeResult`;
-- `generic`: the paper's generic slopes of Fig. 12 (`GenericSlopeCase`, `FIG12A`,
+- `generic`: the paper's generic slopes of Fig. 13 (`GenericSlopeCase`, `FIG12A`,
   `FIG12B`, `run_generic_slope`);
 - `results`: the crack-speed map and the NetCDF dataset of a slope run, read back.
 """

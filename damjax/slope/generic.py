@@ -1,12 +1,12 @@
-"""The paper's slope-scale case (Fig. 12): a generic slope with a random weak layer.
+"""The paper's slope-scale case (Fig. 13): a generic slope with a random weak layer.
 
-`GenericSlopeCase` collects what the paper specifies for Fig. 12 a (50 m x 60 m and
+`GenericSlopeCase` collects what the paper specifies for Fig. 13 a (50 m x 60 m and
 50 m x 100 m generic slopes, a concave toe reaching 35 deg and a convex roll at the top,
 Gaussian-random-field weak-layer strength with a mean gradient of 20 Pa/m up-slope,
 E = 4 MPa, sigma_t = 4 kPa, softening delta = 1, a crack started at a weak spot with the
 PST sawing procedure) and the choices the paper leaves open, each stated here:
 
-- geometry: 50 m down-slope and 60 m (Fig. 12a) or 100 m (Fig. 12b) across, measured
+- geometry: 50 m down-slope and 60 m (Fig. 13a) or 100 m (Fig. 13b) across, measured
   along the surface (the paper's Sec. 2: "50 m (down-slope) by 60 m (cross-slope)");
 - slope profile: `damjax.terrain.generic_slope_angle` with its defaults, evaluated along the
   surface: a concave toe from 30 deg at the lower edge to 35 deg at 10 m, planar 35 deg,
@@ -25,11 +25,11 @@ PST sawing procedure) and the choices the paper leaves open, each stated here:
   paper gives neither: 100 Pa is a 10 % coefficient of variation of the base strength, and
   8 m makes the "increase of around 400 Pa over 20 m" of the text visible above the noise
   (the same values as the shipped synthetic map, `damjax/data/synthetic_strength_map.csv`).
-  Fig. 12b ("heterogeneity mostly oriented in the cross-slope direction") turns the trend
+  Fig. 13b ("heterogeneity mostly oriented in the cross-slope direction") turns the trend
   across the slope (`trend_deg` = -90: rising from the y = width edge);
 - start (the paper's star): the weakest point of the (2 m box-smoothed) field inside a
-  start window: Fig. 12a at the bottom of the slope, x in [2, 8] m (psi 30.5-34.6 deg)
-  and the middle half of the width; Fig. 12b near the top right corner, x in [34, 40] m
+  start window: Fig. 13a at the bottom of the slope, x in [2, 8] m (psi 30.5-34.6 deg)
+  and the middle half of the width; Fig. 13b near the top right corner, x in [34, 40] m
   (just below the roll) and y in [92, 98] m. A start at psi near phi needs a long sawn
   length before the crack runs by itself (8.4 m at 29 deg, measured).
 
@@ -57,7 +57,7 @@ from damjax.slope.simulation import SlopeResult, simulate_slope
 
 @dataclasses.dataclass(frozen=True)
 class GenericSlopeCase:
-    """Geometry, strength field and numerics of a Fig. 12-type run.
+    """Geometry, strength field and numerics of a Fig. 13-type run.
 
     Attributes:
         length: down-slope extent along the surface [m].
@@ -72,7 +72,7 @@ class GenericSlopeCase:
         trend: mean strength gradient [Pa/m] (0: stationary field), up-slope unless
             `trend_deg` turns it.
         trend_deg: direction of the rising strength [deg, counter-clockwise from up-slope]:
-            0 up-slope from the lower edge, -90 across from the y = width edge (Fig. 12b);
+            0 up-slope from the lower edge, -90 across from the y = width edge (Fig. 13b);
             `mean_at` is measured along it (`damjax.fields.plateau_trend_field`).
         grf_std: standard deviation of the random part [Pa] (0: no randomness).
         grf_length: correlation length (gstools' Gaussian convention) [m].
@@ -149,7 +149,7 @@ FIG12_PARAMS = dict(youngs_modulus=4.0e6, tensile_strength=4000.0, softening=1.0
 
 
 def fig12_params(**overrides: Any) -> PSTParams:
-    """The paper's Fig. 12 slab and weak layer: E = 4 MPa, sigma_t = 4 kPa, delta = 1
+    """The paper's Fig. 13 slab and weak layer: E = 4 MPa, sigma_t = 4 kPa, delta = 1
     (the rest the PST baseline: h = 0.5 m, rho = 250 kg/m^3, phi = 27 deg, ...)."""
     return PSTParams(**{**FIG12_PARAMS, **overrides})
 
@@ -287,7 +287,7 @@ def run_generic_slope(
     *,
     progress: bool = False,
 ) -> SlopeResult:
-    """Run a Fig. 12-type release; the summary gains the case description and
+    """Run a Fig. 13-type release; the summary gains the case description and
     ``upslope_arrest_position_m`` (highest released point on the start's up-slope band,
     from the lower edge, along the surface [m]; None where the up-slope front did not
     arrest), ``start_m`` and ``start_slope_deg``."""

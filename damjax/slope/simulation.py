@@ -202,7 +202,7 @@ class SlopeResult:
                 }
             ),
             "summary": json.dumps(self.summary),
-            "Conventions": "CF-1.8",
+            "Conventions": "CF-1.10",
         }
         return ds
 
@@ -1107,7 +1107,7 @@ def run(
         )
     # `front_quiet_at_end`: no weak layer up-slope of the start failed in the last
     # ARREST_QUIET s (failures below the start are left out: the released slab keeps
-    # loading the toe long after the front stopped; Fig. 12 seed 0, 5 s: 2900 cells at
+    # loading the toe long after the front stopped; Fig. 13 seed 0, 5 s: 2900 cells at
     # x < 5 m failed after 3 s, none up-slope of the start)
     up_t = t_b[broken & (xp >= x0)]
     last_up = float(up_t.max()) if up_t.size else math.nan
