@@ -15,6 +15,7 @@ import json
 import math
 import os
 import tempfile
+import time as _time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -421,3 +422,66 @@ def toml_dumps(data: dict[str, Any]) -> str:
             lines.append(f"[{k}]")
             lines += [f"{kk} = {toml_value(vv)}" for kk, vv in v.items()]
     return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- folder locks
+
+
+def lock_folder(out: Path, name: str, who: str) -> tuple[Any, str | None]:
+    """Take ``out/name`` for this run (``who``: the command, for the message): an exclusive
+    `fcntl.flock` on a file naming the holder (pid, host, start). The kernel drops the lock
+    when its process ends, however it ends, so the file a killed run left behind is taken
+    over. Returns the open file (holding the lock) and the text a killed run had left in
+    it, or None. ValueError naming the holder when a running process has it. Without
+    `fcntl` (Windows): no lock."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not a POSIX system
+        return None, None
+    import socket
+
+    path = out / name
+    for _ in range(10):
+        fh = open(path, "a+", encoding="utf-8")  # noqa: SIM115 - held for the run
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            fh.close()
+            raise ValueError(
+                f"{out}: in use by another {who} ({holder}); wait for it to finish, or "
+                "give another --out"
+            ) from None
+        # the holder before us may have removed the file as we opened it: ours must be
+        # the file at the path, else try again
+        try:
+            same = os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        fh.close()
+    else:  # pragma: no cover - the path replaced ten times over
+        raise ValueError(f"{out}: cannot take {name}; give another --out")
+    fh.seek(0)
+    left = fh.read().strip() or None
+    fh.seek(0)
+    fh.truncate()
+    fh.write(
+        f"pid {os.getpid()} on {socket.gethostname()}, started "
+        f"{_time.strftime('%Y-%m-%d %H:%M:%S')}\n"
+    )
+    fh.flush()
+    return fh, left
+
+
+def unlock_folder(out: Path, name: str, fh: Any) -> None:
+    """Remove the lock file, then release it (a process waiting on the removed file
+    sees that it is gone and opens the path again)."""
+    if fh is None:
+        return
+    try:
+        (out / name).unlink(missing_ok=True)
+    finally:
+        fh.close()

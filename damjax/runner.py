@@ -49,6 +49,7 @@ SLOPE_PLOT = "slope.png"  # slope scenarios: maps (h, crown, stauchwall, arrival
 SLOPE_ANIMATION = "release.gif"  # slope scenarios: animation of the release
 SLOPE_OUTPUTS = (SLOPE_PLOT, SLOPE_ANIMATION)
 CHECKPOINT_FORMAT = "damjax-checkpoint/1"
+LOCK_FILE = ".damjax-run.lock"  # held by the run or resume writing into the folder
 TIMING_KEYS = io.TIMING_KEYS  # kept out of results.nc (summary.json has them)
 
 
@@ -292,6 +293,20 @@ def run(
         scn = scenario.load(scn)
     out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
     _make_out(out)
+    held, _ = io.lock_folder(out, LOCK_FILE, "damjax run")
+    try:
+        return _run_locked(scn, out, checkpoint_every, progress, on_chunk)
+    finally:
+        io.unlock_folder(out, LOCK_FILE, held)
+
+
+def _run_locked(
+    scn: Scenario,
+    out: Path,
+    checkpoint_every: float | None,
+    progress: bool,
+    on_chunk: Callable[[int], None] | None,
+) -> RunOutcome:
     if (out / CHECKPOINT).exists():
         other = _checkpointed_scenario(out / CHECKPOINT)
         which = (
@@ -407,6 +422,20 @@ def resume(
                 "--checkpoint-every (checkpoint_every)"
             )
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
+    held, _ = io.lock_folder(out, LOCK_FILE, "damjax run")
+    try:
+        return _resume_locked(out, path, checkpoint_every, progress, on_chunk)
+    finally:
+        io.unlock_folder(out, LOCK_FILE, held)
+
+
+def _resume_locked(
+    out: Path,
+    path: Path,
+    checkpoint_every: float | None,
+    progress: bool,
+    on_chunk: Callable[[int], None] | None,
+) -> RunOutcome:
     ck = _read(io.read_npz, path, "checkpoint")
     if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")

@@ -318,7 +318,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(tiny, tmp_path):
 
     out = tmp_path / "busy"
     out.mkdir()
-    held, left = batch._lock_folder(out)
+    held, left = io.lock_folder(out, batch.LOCK_FILE, "damjax ensemble")
     assert left is None
     try:
         text = (out / batch.LOCK_FILE).read_text()
@@ -342,7 +342,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(tiny, tmp_path):
         assert f"pid {os.getpid()} on " in lines[0] and "give another --out" in lines[0]
         assert not (out / "plan.json").exists()  # it touched nothing
     finally:
-        batch._unlock_folder(out, held)
+        io.unlock_folder(out, batch.LOCK_FILE, held)
     assert not (out / batch.LOCK_FILE).exists()
     # a killed run's lock file: its process is gone, so the next run takes it over
     (out / batch.LOCK_FILE).write_text("pid 999999 on elsewhere, started 2026-11-27 00:00:00\n")

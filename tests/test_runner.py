@@ -419,3 +419,19 @@ def test_a_resume_refuses_inputs_that_changed_or_went(tmp_path):
     with pytest.raises(ValueError, match=r"dem\.asc: read by the checkpointed run, no longer"):
         runner._check_inputs(path, ck)
     runner._check_inputs(path, {})  # a checkpoint written before the digests: not checked
+
+
+def test_a_folder_in_use_by_a_run_is_refused_naming_the_holder(tmp_path, scn_file):
+    """`run` and `resume` hold the folder's lock file (as ensembles do): a second one into
+    the same folder stops at once, naming the holder, and writes nothing."""
+    out = tmp_path / "busy"
+    out.mkdir()
+    (out / runner.CHECKPOINT).write_bytes(b"PK")  # the running one's checkpoint
+    held, _ = io.lock_folder(out, runner.LOCK_FILE, "damjax run")  # another open file
+    try:
+        for call in (lambda: runner.run(scenario.load(scn_file), out), lambda: runner.resume(out)):
+            with pytest.raises(ValueError, match=r"in use by another damjax run \(pid "):
+                call()
+    finally:
+        io.unlock_folder(out, runner.LOCK_FILE, held)
+    assert [p.name for p in out.iterdir()] == [runner.CHECKPOINT]

@@ -273,7 +273,7 @@ def run(
     held, problem = None, None
     if distributed.process_index() == 0:
         try:
-            held, left = _lock_folder(out)
+            held, left = io.lock_folder(out, LOCK_FILE, "damjax ensemble")
             if left:
                 say(f"took over the lock a finished or killed run left ({left})")
         except ValueError as exc:
@@ -286,7 +286,7 @@ def run(
             ens, out, slice_size, memory_fraction, devices, plot, progress, say, on_slice, t_start
         )
     finally:
-        _unlock_folder(out, held)
+        io.unlock_folder(out, LOCK_FILE, held)
 
 
 def _run_locked(
@@ -464,66 +464,6 @@ def _run_locked(
     if summary is not None:
         ds.attrs["run_summary"] = json.dumps(summary)
     return ds
-
-
-def _lock_folder(out: Path) -> tuple[Any, str | None]:
-    """Take ``out/LOCK_FILE`` for this run: an exclusive `fcntl.flock` on a file naming
-    the holder (pid, host, start). The kernel drops the lock when its process ends,
-    however it ends, so the file a killed run left behind is taken over; (the open file,
-    holding the lock, and the text a killed run had left in it, or None). ValueError
-    naming the holder when a running process has it. Without `fcntl` (Windows): no lock.
-    """
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not a POSIX system
-        return None, None
-    import socket
-
-    path = out / LOCK_FILE
-    for _ in range(10):
-        fh = open(path, "a+", encoding="utf-8")  # noqa: SIM115 - held for the run
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.seek(0)
-            holder = fh.read().strip() or "another process"
-            fh.close()
-            raise ValueError(
-                f"{out}: in use by another damjax ensemble ({holder}); wait for it to "
-                "finish, or give another --out"
-            ) from None
-        # the holder before us may have removed the file as we opened it: ours must be
-        # the file at the path, else try again
-        try:
-            same = os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino
-        except FileNotFoundError:
-            same = False
-        if same:
-            break
-        fh.close()
-    else:  # pragma: no cover - the path replaced ten times over
-        raise ValueError(f"{out}: cannot take {LOCK_FILE}; give another --out")
-    fh.seek(0)
-    left = fh.read().strip() or None
-    fh.seek(0)
-    fh.truncate()
-    fh.write(
-        f"pid {os.getpid()} on {socket.gethostname()}, started "
-        f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n"
-    )
-    fh.flush()
-    return fh, left
-
-
-def _unlock_folder(out: Path, fh: Any) -> None:
-    """Remove the lock file, then release it (a process waiting on the removed file
-    sees that it is gone and opens the path again)."""
-    if fh is None:
-        return
-    try:
-        (out / LOCK_FILE).unlink(missing_ok=True)
-    finally:
-        fh.close()
 
 
 def _mib(b: int | None) -> str:
