@@ -348,7 +348,10 @@ class _WarningPrinter:
         text = str(message)
         if issubclass(category, UserWarning) and text not in self._seen:
             self._seen.add(text)
-            sys.stderr.write(f"damjax: warning: {text}\n")
+            from tqdm import tqdm
+
+            # above a running progress bar, which is drawn again below it
+            tqdm.write(f"damjax: warning: {text}", file=sys.stderr)
 
     def __exit__(self, *exc: Any) -> None:
         self._ctx.__exit__(*exc)

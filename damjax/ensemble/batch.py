@@ -397,11 +397,12 @@ def _run_locked(
     if progress and mine:
         from damjax._progress import progress_bar as tqdm
 
+        here = sum(b - a for a, b in mine)  # members this process runs now
         bar = tqdm(
-            total=sum(b - a for a, b in mine) * layout.n_steps,
+            total=here * layout.n_steps,
             unit="step",
             unit_scale=True,
-            desc=f"ensemble x{ens.members}",
+            desc=f"ensemble x{here}" + (f" of {ens.members}" if here < ens.members else ""),
         )
     run_time = 0.0
     run_members = 0
