@@ -284,13 +284,22 @@ class PSTParams(eqx.Module):
     )
     wl_shear_modulus: Any = param(2.0e5, "Pa", "weak-layer shear modulus G_wl", POSITIVE)
     wl_thickness: Any = param(
-        0.04, "m", "weak-layer thickness D_wl", POSITIVE, notes="K_wl = G_wl / D_wl [Pa/m]."
+        0.04,
+        "m",
+        "weak-layer thickness D_wl",
+        POSITIVE,
+        notes="K_wl = G_wl / D_wl [Pa/m].",
+        plausible=Range(1e-3, 0.5, True, True),
+        plausible_why="weak layers are mm (surface hoar) to decimetres (depth hoar) thick",
     )
     tau_peak: Any = param(
         1000.0,
         "Pa",
         "weak-layer peak shear strength tau_p on [0, L_ss] (inf: unbreakable)",
         POSITIVE_OR_INF,
+        plausible=Range(20.0, 2e4, True, True),
+        plausible_why="weak-layer shear strengths (shear-frame tests: a few hundred Pa to a "
+        "few kPa)",
     )
     steady_length: Any = param(
         20.0,
@@ -313,8 +322,13 @@ class PSTParams(eqx.Module):
     tensile_strength: Any = param(
         math.inf,
         "Pa",
-        "slab uniaxial tensile strength sigma_t (inf: elastic slab)",
+        "slab tensile strength sigma_t of the MCC surface (inf: elastic slab); the default "
+        "slab yields in uniaxial tension at 0.53 sigma_t (docs/model/slab.md)",
         POSITIVE_OR_INF,
+        # no upper bound: a very large sigma_t is how a slab is kept elastic on purpose
+        plausible=Range(50.0, math.inf, True, True),
+        plausible_why="tensile strengths of snow slab layers (in-situ tests: hundreds of Pa "
+        "to tens of kPa)",
     )
     saw_speed: Any = param(
         6.0,

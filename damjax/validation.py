@@ -590,8 +590,8 @@ def implausible(params: PSTParams, given: Iterable[str] | None = None) -> list[P
         if spec.plausible is None or (given is not None and name not in given):
             continue
         v = _scalar(params, name)
-        if v is None or not spec.valid.holds(v) or spec.plausible.holds(v):
-            continue
+        if v is None or not spec.valid.holds(v) or spec.plausible.holds(v) or np.isinf(v):
+            continue  # inf: the documented "unbreakable" / "elastic" setting
         hint = spec.unit_hint(v)
         reason = f"outside {spec.plausible} {spec.unit}".rstrip() + f", {spec.plausible_why}"
         notes.append(

@@ -215,6 +215,24 @@ def test_cli_json_summary_and_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.parametrize(
+    "field, value, hint",
+    [
+        ("tensile_strength", 6.0, "did you mean 6 kPa = 6000 Pa?"),
+        ("wl_thickness", 4.0, "did you mean 4 cm = 0.04 m?"),
+        ("tau_peak", 1e6, "weak-layer shear strengths"),
+    ],
+)
+def test_unit_mixups_of_strengths_and_the_weak_layer_are_noted(field, value, hint):
+    from damjax.validation import implausible
+
+    notes = implausible(PSTParams(**{field: value}))
+    assert [n.field for n in notes] == [field] and hint in notes[0].text()
+    # inf is the documented unbreakable layer / elastic slab: no note
+    if field != "wl_thickness":
+        assert implausible(PSTParams(**{field: math.inf})) == []
+
+
 def test_dubious_api_input_warns_and_theory_below_friction_is_null():
     """A slope at or below the friction angle runs (low-angle terrain is a valid question),
     with a warning naming both fields; the bar-model theory values, negative there, are

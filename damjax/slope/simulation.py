@@ -82,6 +82,11 @@ class SlopeResult:
     """Maps on the cell grid (nx, ny) of the release area, and summary numbers; a pytree,
     so `jax.vmap` of `simulate_slope` returns one batched result.
 
+    The maps are Lagrangian: each cell shows the particles that started in it, wherever
+    they have slid since (``height`` is the final height of the slab that lay on the
+    cell at t = 0, not of what lies there now); a released slab's displacement is in the
+    final state (``final_state.npz``: ``state.u``).
+
     Attributes:
         x: (nx,) cell centres up-slope along the surface [m].
         y: (ny,) cell centres across the slope [m].
@@ -661,7 +666,11 @@ def particle_damage(model: Model, state: State, width: float = RELEASE_DAMAGE_WI
 
 def release_area_smooth(model: Model, state: State) -> Any:
     """Smooth release area [m^2]: the particles' `particle_damage` times their area (a JAX
-    scalar, differentiable; close to ``release_area_m2`` where the ramp is narrow in x)."""
+    scalar, differentiable; close to ``release_area_m2`` where the ramp is narrow in x).
+    Intact weak layer loaded beyond u_r / 2 counts partly: an intact brittle layer
+    (softening 0) at a stability ratio S = tau_p / tau_g < 2 has u_max / u_r = 1 / S and
+    counts s(2 / S - 1) of its area (0.36 at S = 1.42); read ``release_area_m2`` for the
+    area itself."""
     return jnp.sum(particle_damage(model, state)) * model.slab.area0
 
 
