@@ -476,6 +476,17 @@ def lock_folder(out: Path, name: str, who: str) -> tuple[Any, str | None]:
     return fh, left
 
 
+@contextlib.contextmanager
+def folder_lock(out: Path, name: str, who: str) -> Iterator[str | None]:
+    """`lock_folder` for the ``with`` block (yields the text a killed run had left in the
+    lock file, or None), then `unlock_folder`."""
+    held, left = lock_folder(out, name, who)
+    try:
+        yield left
+    finally:
+        unlock_folder(out, name, held)
+
+
 def unlock_folder(out: Path, name: str, fh: Any) -> None:
     """Remove the lock file, then release it (a process waiting on the removed file
     sees that it is gone and opens the path again)."""

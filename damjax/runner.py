@@ -293,11 +293,8 @@ def run(
         scn = scenario.load(scn)
     out = Path(out_dir) if out_dir is not None else default_out_dir(scn)
     _make_out(out)
-    held, _ = io.lock_folder(out, LOCK_FILE, "damjax run")
-    try:
+    with io.folder_lock(out, LOCK_FILE, "damjax run"):
         return _run_locked(scn, out, checkpoint_every, progress, on_chunk)
-    finally:
-        io.unlock_folder(out, LOCK_FILE, held)
 
 
 def _run_locked(
@@ -422,43 +419,30 @@ def resume(
                 "--checkpoint-every (checkpoint_every)"
             )
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
-    held, _ = io.lock_folder(out, LOCK_FILE, "damjax run")
-    try:
-        return _resume_locked(out, path, checkpoint_every, progress, on_chunk)
-    finally:
-        io.unlock_folder(out, LOCK_FILE, held)
-
-
-def _resume_locked(
-    out: Path,
-    path: Path,
-    checkpoint_every: float | None,
-    progress: bool,
-    on_chunk: Callable[[int], None] | None,
-) -> RunOutcome:
-    ck = _read(io.read_npz, path, "checkpoint")
-    if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
-        raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
-    _check_inputs(path, ck)
-    try:
-        scn, chunk, state, tips, snaps = _read_checkpoint(path, ck)
-    except (KeyError, IndexError, TypeError) as exc:
-        raise ValueError(f"{path}: incomplete checkpoint (no {exc})") from None
-    except ValueError as exc:  # a scenario or state that does not fit: name the file
-        if str(path) in str(exc):
-            raise
-        raise ValueError(f"{path}: {exc}") from None
-    if checkpoint_every is not None and checkpoint_every < 0:
-        saved = float(ck.get("checkpoint_every", np.nan))
-        checkpoint_every = None if np.isnan(saved) else saved
-    io.remove_stale_temporaries(out)
-    rec = _Recorder(out, scn, int(ck["n_chunks"]), checkpoint_every, on_chunk)
-    rec.saved_chunk = chunk
-    if scn.type == "slope":
+    with io.folder_lock(out, LOCK_FILE, "damjax run"):
+        ck = _read(io.read_npz, path, "checkpoint")
+        if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
+            raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
+        _check_inputs(path, ck)
+        try:
+            scn, chunk, state, tips, snaps = _read_checkpoint(path, ck)
+        except (KeyError, IndexError, TypeError) as exc:
+            raise ValueError(f"{path}: incomplete checkpoint (no {exc})") from None
+        except ValueError as exc:  # a scenario or state that does not fit: name the file
+            if str(path) in str(exc):
+                raise
+            raise ValueError(f"{path}: {exc}") from None
+        if checkpoint_every is not None and checkpoint_every < 0:
+            saved = float(ck.get("checkpoint_every", np.nan))
+            checkpoint_every = None if np.isnan(saved) else saved
+        io.remove_stale_temporaries(out)
+        rec = _Recorder(out, scn, int(ck["n_chunks"]), checkpoint_every, on_chunk)
+        rec.saved_chunk = chunk
         resume_args = dict(state=state, start_chunk=chunk, history=(tips, snaps))
-        return _run_slope(scn, out, rec, progress, chunk, **resume_args)
-    result = _simulate(scn, rec, progress, state=state, start_chunk=chunk, history=(tips, snaps))
-    return _finish(scn, out, result, rec, chunk)
+        if scn.type == "slope":
+            return _run_slope(scn, out, rec, progress, chunk, **resume_args)
+        result = _simulate(scn, rec, progress, **resume_args)
+        return _finish(scn, out, result, rec, chunk)
 
 
 def _read_checkpoint(path: Path, ck: dict[str, np.ndarray]) -> tuple[Any, ...]:
