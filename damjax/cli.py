@@ -637,7 +637,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--resolution",
         type=_positive,
         default=None,
-        help="--to gis: GeoTIFF pixel size [m] (default about dx)",
+        help="--to gis: GeoTIFF pixel size [m] (default dx times the smallest cos(psi) "
+        "along the area's centre line: no cell is skipped)",
     )
     p.add_argument("--name", default=None, help="--to avaframe: release shapefile name")
     p.add_argument(

@@ -137,6 +137,46 @@ def test_geotiffs_and_polygons_have_the_dem_crs_and_area(run_dir, tmp_path):
     assert meta["crs"] == "EPSG:2056"
 
 
+def test_cells_without_snow_are_no_data_in_the_geotiffs(run_dir, tmp_path):
+    """A cell without snow (rock above the slope limit, a mask) has no slab: its thickness
+    change is nodata and its released pixel 255, not -h0 and 0 (a slab that left)."""
+
+    def pixels(ds, folder):
+        files = gis.write_geotiffs(ds, gis.frame_of(ds), tmp_path / folder, resolution=DX / 2)
+        with rasterio.open(files["thickness_change"]) as a, rasterio.open(files["released"]) as b:
+            return a.read(1), b.read(1)
+
+    ds = gis.open_run(run_dir)
+    dh0, rel0 = pixels(ds, "all")
+    bare = np.zeros(ds["snow"].shape, bool)
+    bare[:, -5:] = True  # the five columns at the area's far side: no snow there
+    ds["snow"].values[bare] = False
+    ds["thickness"].values[bare] = 0.0
+    ds["height"].values[bare] = 0.0
+    dh, rel = pixels(ds, "bare")
+    assert np.sum(rel == 255) > np.sum(rel0 == 255)  # the bare cells joined the nodata
+    for d, r in ((dh0, rel0), (dh, rel)):
+        np.testing.assert_array_equal(np.isnan(d), r == 255)  # one nodata in both layers
+    assert np.nanmin(dh) == pytest.approx(np.nanmin(dh0))  # no "-h0" pixel
+
+
+def test_a_dem_whose_wkt_lacks_its_authority_exports_its_epsg_code(tmp_path):
+    """The shipped avaKot DEM's WKT names MGI / Austria Lambert without an AUTHORITY: the
+    zones must still carry EPSG:31287 (GeoJSON without a "crs" member is read as WGS84,
+    GeoPackage as an unknown custom system)."""
+    from shapely.geometry import box
+
+    dem = Path(gis.__file__).parents[1] / "data" / "paths" / "avaKot" / "dem.tif"
+    with rasterio.open(dem) as src:
+        assert src.crs.to_epsg() == 31287  # rasterio identifies it ...
+    crs = gis.dem_crs(dem)
+    assert crs.to_epsg() == 31287 and crs == CRS.from_epsg(31287)  # ... and we keep the code
+    zones = gpd.GeoDataFrame({"id": [1]}, geometry=[box(0, 0, 10, 10)], crs=crs)
+    for name in ("z.geojson", "z.gpkg"):
+        zones.to_file(tmp_path / name)
+        assert gpd.read_file(tmp_path / name).crs.to_epsg() == 31287, name
+
+
 def test_local_frame_without_a_dem(run_dir, tmp_path):
     ds = gis.open_run(run_dir)
     fr = gis.frame_of(ds, scenario={"terrain": {"kind": "plane"}})

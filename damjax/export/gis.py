@@ -117,12 +117,27 @@ def _scenario_table(ds: Any, scenario: Any) -> dict[str, Any]:
     return tomllib.loads(s)
 
 
+def _with_code(crs: Any) -> Any:
+    """``crs`` as its EPSG definition where rasterio identifies one: a WKT without its
+    AUTHORITY (the shipped avaKot DEM's) reached GeoJSON without a "crs" member (read as
+    WGS84) and GeoPackage as an unknown custom system."""
+    if crs is None:
+        return None
+    code = crs.to_epsg()
+    return need("rasterio.crs").CRS.from_epsg(code) if code else crs
+
+
 def dem_crs(path: str | os.PathLike) -> Any:
-    """The CRS of a DEM file (a `rasterio.crs.CRS`), or None if it has none.
+    """The CRS of a DEM file (a `rasterio.crs.CRS`, its EPSG definition where it has a
+    code), or None if it has none.
 
     GeoTIFF: its own; ESRI ASCII: the ``.prj`` beside it; NetCDF: a ``crs_wkt`` or
     ``spatial_ref`` attribute of any variable.
     """
+    return _with_code(_file_crs(path))
+
+
+def _file_crs(path: str | os.PathLike) -> Any:
     crs_mod = need("rasterio.crs")
     p = Path(path)
     suffix = p.suffix.lower()
@@ -404,13 +419,25 @@ def write_geotiffs(
         )
     if "arrival_time" in ds and "member" not in ds["arrival_time"].dims:
         h0 = _h0(ds, _maybe_table(ds, scenario))
-        dh = np.asarray(ds["height"].values, dtype=np.float32) - np.float32(h0)
+        height = np.asarray(ds["height"].values, dtype=np.float32)
+        # each cell's own h0 where the file has it (a thickness map, cells without snow)
+        if "thickness" in ds:
+            h0_map = np.asarray(ds["thickness"].values, dtype=np.float32)
+            h0_text = "h0 the cell's initial thickness"
+        else:
+            h0_map = np.full_like(height, np.float32(h0))
+            h0_text = f"h0 = {h0} m"
+        dh = height - h0_map
         at = np.asarray(ds["arrival_time"].values, dtype=np.float32)
         rel = np.isfinite(at).astype(np.uint8)
+        if "snow" in ds:  # no snow, no slab: no data, not a slab that left
+            bare = ~np.asarray(ds["snow"].values, dtype=bool)
+            dh[bare] = np.nan
+            rel[bare] = 255
         layers += [
-            ("thickness_change", dh, np.nan, "m", f"slab thickness change h - h0 (h0 = {h0} m)"),
+            ("thickness_change", dh, np.nan, "m", f"slab thickness change h - h0 ({h0_text})"),
             ("arrival_time", at, np.nan, "s", "weak-layer failure time (NaN: intact)"),
-            ("released", rel, 255, "1", "weak layer failed: 1, intact: 0, outside: 255"),
+            ("released", rel, 255, "1", "weak layer failed: 1, intact: 0, no snow or outside: 255"),
         ]
     if not layers:
         raise ValueError("nothing to write: the dataset has no single-run fields or probability")
