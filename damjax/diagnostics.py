@@ -499,6 +499,8 @@ def summarize(
         front = "reached_end"
     else:
         front = "moving"
+    # a tip that only followed the saw moved at the saw's speed: no crack speed
+    followed_saw = front in ("sawn_only", "controlled")
     a_c_th = (
         None
         if s.controlled or not slides or profiled or not brittle
@@ -520,9 +522,8 @@ def summarize(
         "runaway_gradient_pa_per_m": None
         if s.controlled or is_plastic(p) or not slides or profiled or not brittle
         else float(theory.runaway_gradient(p, s.lateral)),
-        # a tip that only followed the saw (sawn_only, controlled) moved at the saw's speed
-        "max_crack_speed_m_per_s": None if front in ("sawn_only", "controlled") else max_speed,
-        "max_crack_speed_over_cs": None if front in ("sawn_only", "controlled") else max_speed / cs,
+        "max_crack_speed_m_per_s": None if followed_saw else max_speed,
+        "max_crack_speed_over_cs": None if followed_saw else max_speed / cs,
         "wave_speed_over_cs": float(theory.longitudinal_wave_speed(p, s.lateral)) / cs,
         "shear_wave_speed_m_per_s": cs,
         "slab_fractures": result.fractures,

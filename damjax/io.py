@@ -301,13 +301,17 @@ def write_dataset(path: str | os.PathLike[str], ds: Any, engine: str | None = No
         ds.to_netcdf(tmp, engine=engine, format=fmt)
 
 
+def _engine(path: str | os.PathLike[str]) -> str:
+    """xarray's engine for a results file, from its first bytes (NetCDF4/HDF5 or NetCDF3)."""
+    with open(path, "rb") as fh:
+        return "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
+
+
 def dataset_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
     """A results file's global attributes, without reading its variables."""
     import xarray as xr
 
-    with open(path, "rb") as fh:
-        engine = "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
-    with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
+    with xr.open_dataset(path, engine=_engine(path), decode_times=False) as ds:
         return dict(ds.attrs)
 
 
@@ -318,8 +322,7 @@ def open_dataset(path: str | os.PathLike[str]) -> Any:
     """
     import xarray as xr
 
-    with open(path, "rb") as fh:
-        engine = "h5netcdf" if fh.read(4) == b"\x89HDF" else "scipy"
+    engine = _engine(path)
     try:
         with xr.open_dataset(path, engine=engine, decode_times=False, decode_timedelta=False) as ds:
             return ds.load()

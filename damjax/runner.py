@@ -346,9 +346,9 @@ def _note_replaced(out: Path, scn: Scenario) -> None:
         return
     try:
         attrs = io.dataset_attrs(out / RESULTS)
-        old = str(attrs.get("scenario", ""))
     except Exception:  # not ours or damaged: replaced as before
-        old = ""
+        attrs = {}
+    old = str(attrs.get("scenario", ""))
     if old and old != scn.to_toml():
         name = str(attrs.get("title", "")).rsplit(" ", 1)[-1] or "?"
         warnings.warn(
