@@ -14,6 +14,8 @@ A slope run's slab need not be a uniform sheet over every cell (`damjax.simulate
 - `start_zone`: the snow-covered cells in the slope band of potential release areas (28-60
   deg), where a run without a release polygon places its random triggers.
 - `sample_raster`: a raster (snow depth, mask; GeoTIFF, ESRI ASCII, NetCDF) at map points.
+- `polygon_mask`: a polygon layer (forest, rock; shapefile, GeoPackage, GeoJSON) at map
+  points: which lie inside a polygon.
 
 Sources and numbers: docs/guide/real-path.md ("Snow cover and weak layer on terrain").
 """
@@ -127,6 +129,49 @@ def sample_raster(
     else:
         v = r.sample(qx, qy)
     return np.where(inside, v, math.nan)
+
+
+# the vector formats a mask may come as (anything else is read as a raster)
+POLYGON_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".fgb")
+
+
+def polygon_mask(
+    file: str | os.PathLike, px: np.ndarray, py: np.ndarray, *, key: str = "snow.mask"
+) -> tuple[np.ndarray, str | None]:
+    """Which map points px, py [m] lie inside a polygon of a vector layer (a forest or
+    rock layer as GIS data holds it: .shp, .gpkg, .geojson; points or lines are ignored),
+    and the layer's CRS as WKT (None: it names none). Unlike a raster mask the layer need
+    not cover the domain: outside its polygons is snow.
+
+    Raises:
+        ValueError: no such file, unreadable, or no polygon in it (naming ``key``).
+    """
+    try:
+        import geopandas as gpd
+        import shapely
+    except ImportError:  # pragma: no cover
+        raise ValueError(f"{key}: a polygon mask needs geopandas and shapely") from None
+    name = repr(os.path.basename(str(file)))
+    if not os.path.isfile(file):
+        raise ValueError(f"{key} = {name}: no such file")
+    try:
+        gdf = gpd.read_file(file)
+    except Exception as exc:  # noqa: BLE001 (any reader failure is the file's problem)
+        msg = " ".join(str(exc).split())
+        raise ValueError(f"{key} = {name}: unreadable ({msg})") from None
+    polys = [
+        g for g in gdf.geometry if g is not None and g.geom_type in ("Polygon", "MultiPolygon")
+    ]
+    if not polys:
+        raise ValueError(
+            f"{key} = {name}: holds no polygon (a mask layer of polygons: forest, rock)"
+        )
+    geom = shapely.union_all(polys)
+    shapely.prepare(geom)
+    px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
+    # a point on a polygon's boundary counts as inside, as a rasterised cell would
+    inside = np.asarray(shapely.intersects_xy(geom, px, py), bool)
+    return inside, (gdf.crs.to_wkt() if gdf.crs is not None else None)
 
 
 def raster_covers(r: Any, px: np.ndarray, py: np.ndarray) -> np.ndarray:

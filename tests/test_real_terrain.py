@@ -212,6 +212,55 @@ def test_a_start_on_a_cell_without_snow_is_refused():
         simulate_slope(SLAB, setup, slope_deg=38.0, tau_peak=900.0, stability=1.4)
 
 
+def test_a_polygon_mask_is_the_raster_mask_it_draws(tmp_path):
+    """snow.mask as polygons (a forest layer: .shp, .gpkg, .geojson) takes the snow off the
+    cells inside them, as the raster of the same area does; it need not cover the domain;
+    a layer without polygons or in another CRS is refused, naming the key."""
+    gpd = pytest.importorskip("geopandas")
+    from shapely.geometry import Point, box
+
+    dem = _tilted_dem(tmp_path)
+    raster = slope_fields.resolve_inputs(
+        quiet_parse(_dem_doc(dem, max_slope_deg=60.0, mask="forest.asc"), base_dir=tmp_path)
+    )
+    # the raster's pixels with 1 (1 m nodes, y < 8 m) reach y = 7.5 m: the same area
+    forest = gpd.GeoDataFrame({"id": [1]}, geometry=[box(-5.0, -5.0, 100.0, 7.5)], crs=2056)
+    for name in ("forest.shp", "forest.gpkg", "forest.geojson"):
+        forest.to_file(tmp_path / name)
+        doc = _dem_doc(dem, max_slope_deg=60.0, mask=name)
+        inp = slope_fields.resolve_inputs(quiet_parse(doc, base_dir=tmp_path))
+        assert np.array_equal(inp.cover, raster.cover), name
+        assert 0 < np.sum(~inp.cover) < inp.cover.size
+    # a small stand of trees inside the domain: only its cells lose their snow
+    gpd.GeoDataFrame({"id": [1]}, geometry=[box(10.0, 20.0, 14.0, 24.0)], crs=2056).to_file(
+        tmp_path / "stand.shp"
+    )
+    scn = quiet_parse(_dem_doc(dem, max_slope_deg=60.0, mask="stand.shp"), base_dir=tmp_path)
+    inp = slope_fields.resolve_inputs(scn)
+    _, _, px, py = slope_fields.dem_fields(
+        __import__("damjax").terrain.load_dem(dem),
+        *slope_fields.cell_centres(scn.setup),
+        (1.0, 1.0),
+        "+x",
+        map_points=True,
+    )
+    stand = (px >= 10.0) & (px <= 14.0) & (py >= 20.0) & (py <= 24.0)
+    assert 16 * 16 < stand.sum() < 16 * 24  # 4 m of map across, 4 m / cos(30 deg) along
+    assert np.array_equal(~inp.cover, stand)
+    gpd.GeoDataFrame({"id": [1]}, geometry=[Point(10.0, 20.0)], crs=2056).to_file(
+        tmp_path / "pt.shp"
+    )
+    with pytest.raises(ValueError, match=r"snow.mask = 'pt.shp': holds no polygon"):
+        quiet_parse(_dem_doc(dem, mask="pt.shp"), base_dir=tmp_path)
+    with pytest.raises(ValueError, match=r"snow.mask = 'none.shp': no such file"):
+        quiet_parse(_dem_doc(dem, mask="none.shp"), base_dir=tmp_path)
+    pyproj = pytest.importorskip("pyproj")
+    (tmp_path / "dem.prj").write_text(pyproj.CRS.from_epsg(2056).to_wkt())
+    forest.set_crs(21781, allow_override=True).to_file(tmp_path / "forest21781.gpkg")
+    with pytest.raises(ValueError, match=r"snow.mask = 'forest21781.gpkg': CRS .* differs"):
+        quiet_parse(_dem_doc(dem, mask="forest21781.gpkg"), base_dir=tmp_path)
+
+
 def test_snow_rasters_are_checked_where_they_are_read(tmp_path):
     """A snow raster must cover the domain, hold no negative depth and share the DEM's
     CRS; snow.min_thickness is > 0 and holds for a uniform slab too; the start zone's

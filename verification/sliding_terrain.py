@@ -22,6 +22,8 @@ without a run. One JSON line per (path, buffer), printed and appended to
     python -m verification.sliding_terrain --max-slope 55   # SLF's upper cut
     python -m verification.sliding_terrain --path avaAlr --field-dx 2 \
         --dem AVAFRAME/avaframe/data/avaAlr/Inputs/avaAlr.tif  # AvaFrame's whole DEM
+    python -m verification.sliding_terrain --path avaKot \
+        --mask AVAFRAME/avaframe/data/avaKot/Inputs/RES/resistance.shp  # its forest
 
 Cost (2026-11-27, 2-core CPU): seconds per buffer, a minute for a whole DEM (AvaFrame's
 avaAlr DEM: 81 s, 10 GB peak memory).
@@ -51,13 +53,15 @@ def with_buffer(
     dem: str | None = None,
     field_dx: float | None = None,
     max_slope: float | None = None,
+    mask: str | None = None,
 ) -> Any:
     """The shipped scenario ``name`` with ``terrain.buffer`` [m] (its domain made anew)
     and, given, another DEM file of the same CRS (``dem``: e.g. AvaFrame's whole DEM of
     the path, of which the shipped one is a crop); ``field_dx`` [m]: the grid of the
     stability field, which here only places the trigger (None: the scenario's, the run's
     grid; a coarser one where a large domain's field would not fit); ``max_slope`` [deg]:
-    the snow cover's upper slope limit (None: the scenario's 60 deg)."""
+    the snow cover's upper slope limit (None: the scenario's 60 deg); ``mask``: a
+    ``snow.mask`` file (a raster or polygons of forest or rock; None: none)."""
     from damjax import scenario as scenarios
 
     with warnings.catch_warnings():
@@ -73,6 +77,8 @@ def with_buffer(
             doc["strength"]["field_dx"] = float(field_dx)
         if max_slope is not None:
             doc["snow"]["max_slope_deg"] = float(max_slope)
+        if mask is not None:
+            doc["snow"]["mask"] = str(Path(mask).resolve())
         # set by the polygon and its buffer: made anew
         doc["terrain"].pop("origin", None)
         for key in ("length", "width", "start"):
@@ -86,6 +92,7 @@ def measure(
     dem: str | None = None,
     field_dx: float | None = None,
     max_slope: float | None = None,
+    mask: str | None = None,
 ) -> dict[str, Any]:
     """One row: the domain's snow, its share below the friction angle, and the start's
     sliding region with its share of boundary on the domain's edge."""
@@ -93,7 +100,7 @@ def measure(
     from damjax.slope.simulation import domain_edge_fraction, sliding_region
 
     t0 = time.perf_counter()
-    scn = with_buffer(f"real-path-{path.lower()}", buffer, dem, field_dx, max_slope)
+    scn = with_buffer(f"real-path-{path.lower()}", buffer, dem, field_dx, max_slope, mask)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         prep = scenarios.prepared(scn)
@@ -115,6 +122,7 @@ def measure(
         "start_m": [round(float(c), 2) for c in prep.setup.start],
         "friction_deg": phi,
         "max_slope_deg": float(scn.snow.get("max_slope_deg", 60.0)),
+        "mask": None if mask is None else Path(mask).name,
         "domain_m": [round(float(prep.setup.length), 1), round(float(prep.setup.width), 1)],
         "snow_m2": round(float(snow.sum()) * cell),
         "snow_at_or_below_friction_share": round(gentle, 4),
@@ -159,6 +167,12 @@ def main(argv: list[str] | None = None) -> None:
         help="no snow steeper than this [deg] (default: the scenario's 60; SLF's "
         "release-area method cuts at 55)",
     )
+    ap.add_argument(
+        "--mask",
+        default=None,
+        help="no snow under this mask (snow.mask: a raster or polygons in the DEM's CRS, "
+        "e.g. AvaFrame's forest of avaKot, avaframe/data/avaKot/Inputs/RES/resistance.shp)",
+    )
     ap.add_argument("--no-write", action="store_true", help="print only")
     args = ap.parse_args(argv)
     from benchmarks.cases import git_commit
@@ -172,11 +186,13 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"--buffers {' '.join(map(str, args.buffers))}: each must be > 0 m")
     if args.field_dx is not None and not args.field_dx > 0:
         raise SystemExit(f"--field-dx {args.field_dx}: must be > 0 m")
+    if args.mask is not None and not Path(args.mask).is_file():
+        raise SystemExit(f"--mask {args.mask}: no such file")
     if args.max_slope is not None and not 0 < args.max_slope <= 90:
         raise SystemExit(f"--max-slope {args.max_slope}: must be in (0, 90] deg")
     for path in PATHS if args.path == "all" else (args.path,):
         for buffer in args.buffers:
-            row = measure(path, buffer, args.dem, args.field_dx, args.max_slope)
+            row = measure(path, buffer, args.dem, args.field_dx, args.max_slope, args.mask)
             row.update(date=date, commit=commit)
             print(json.dumps(row), flush=True)
             if not args.no_write:

@@ -100,7 +100,8 @@ the lower edge, y across). Format (SI units, angles in degrees)::
     min_thickness = 0.1         # [m], > 0: no slab on thinner cells (any kind)
     start_min_slope_deg = 28.0  # [deg]: the start zone is the snow in this..max_slope_deg
     mask = "forest.tif"         # optional raster (the DEM's CRS): nonzero cells hold no
-                                # snow (forest, rock). Cells without snow hold no particle
+                                # snow (forest, rock); or polygons (.shp, .gpkg, .geojson):
+                                # no snow inside them. Cells without snow hold no particle
                                 # (no particle work) and are free edges. Files: DEM only
 
     [output]                    # as for PSTs: dir, plot, snapshots
@@ -253,7 +254,7 @@ _SNOW_COMMON = {
     "max_slope_deg": ("float", _ANGLE_TO_90, "deg"),  # no slab steeper (default 60)
     "min_thickness": ("float", _POS, "m"),  # no slab thinner (default 0.1)
     "start_min_slope_deg": ("float", _ANGLE, "deg"),  # start zone's lower edge (28)
-    "mask": ("str", None, ""),  # raster in the DEM's CRS: nonzero cells hold no snow
+    "mask": ("str", None, ""),  # raster or polygons in the DEM's CRS: no snow there
 }
 
 

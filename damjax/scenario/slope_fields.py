@@ -603,7 +603,9 @@ def _snow_cover(
                 stacklevel=2,
             )
     mask = None
-    if "mask" in sn:
+    if "mask" in sn and str(sn["mask"]).lower().endswith(snow_cover.POLYGON_SUFFIXES):
+        mask = _snow_polygons(scn, map_x, map_y)
+    elif "mask" in sn:
         m = _snow_raster(scn, "mask", map_x, map_y, domain, nearest=True)
         mask = np.isfinite(m) & (m != 0)
     # a uniform slab thinner than snow.min_thickness is no slab either
@@ -620,6 +622,38 @@ def _snow_cover(
     if domain is not None:
         cov &= domain
     return thickness, cov
+
+
+def _snow_polygons(scn: Any, map_x: Any, map_y: Any) -> np.ndarray:
+    """The cells inside the polygons of ``snow.mask`` (a vector layer in the DEM's CRS):
+    no snow there (`damjax.snow_cover.polygon_mask`)."""
+    file = scn.snow["mask"]
+    name = repr(os.path.basename(str(file)))
+    if map_x is None or map_y is None:
+        raise _FieldProblem('snow.mask: polygons need a DEM terrain (terrain.kind = "dem")')
+    try:
+        inside, crs = snow_cover.polygon_mask(file, map_x, map_y)
+    except ValueError as exc:
+        raise _FieldProblem(str(exc)) from None
+    _check_crs(scn, "mask", name, crs)
+    return inside
+
+
+def _check_crs(scn: Any, key: str, name: str, crs: str | None) -> None:
+    """_FieldProblem when snow.<key>'s CRS (WKT; None: it names none) is not the DEM's."""
+    try:
+        from damjax.release_area import _same_crs, dem_crs
+
+        dcrs = dem_crs(scn.terrain["file"])
+        if crs is not None and dcrs is not None and not _same_crs(crs, dcrs):
+            import pyproj
+
+            raise _FieldProblem(
+                f"snow.{key} = {name}: CRS {pyproj.CRS(crs).name!r} differs from the "
+                f"DEM's (terrain.file, {pyproj.CRS(dcrs).name!r}); reproject one of them"
+            )
+    except ImportError:  # without the GIS extra no file names a CRS damjax can read
+        pass
 
 
 def _snow_raster(
@@ -642,18 +676,12 @@ def _snow_raster(
         msg = " ".join(str(exc).split())
         raise _FieldProblem(f"snow.{key} = {name}: {msg}") from None
     try:
-        from damjax.release_area import _same_crs, dem_crs
+        from damjax.release_area import dem_crs
 
-        crs, dcrs = dem_crs(file), dem_crs(scn.terrain["file"])
-        if crs is not None and dcrs is not None and not _same_crs(crs, dcrs):
-            import pyproj
-
-            raise _FieldProblem(
-                f"snow.{key} = {name}: CRS {pyproj.CRS(crs).name!r} differs from the "
-                f"DEM's (terrain.file, {pyproj.CRS(dcrs).name!r}); reproject one of them"
-            )
+        crs = dem_crs(file)
     except ImportError:  # without the GIS extra no file names a CRS damjax can read
-        pass
+        crs = None
+    _check_crs(scn, key, name, crs)
     cells = np.ones(np.shape(map_x), bool) if domain is None else np.asarray(domain, bool)
     out = cells & ~snow_cover.raster_covers(r, map_x, map_y)
     if np.any(out):
