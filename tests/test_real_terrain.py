@@ -122,6 +122,9 @@ def test_no_particle_on_steep_or_masked_cells(tmp_path):
     assert res.summary["n_particles"] == xp.size
     assert res.summary["snow_area_m2"] == pytest.approx(xp.size * setup.dx**2)
     assert np.array_equal(res.snow, inp.cover)
+    # the slope map is the terrain's also where no slab lies (a rock face has its angle)
+    np.testing.assert_allclose(res.slope_deg[~inp.cover], psi_raw[~inp.cover], rtol=1e-6)
+    assert np.all(res.slope_deg[steep] > 60.0)
 
 
 def test_depth_map_and_slope_corrected_thickness(tmp_path):

@@ -203,6 +203,9 @@ class SlopeInputs:
         dx: the cells' size [m].
         area_from_polygon: the area's length and width are a release polygon's (plus its
             buffer or margin), not the user's.
+        terrain_slope_deg: the terrain's slope angle [deg] on every cell, also where no
+            snow lies (NaN off the DEM's data); None: ``slope_deg`` (every cell holds snow).
+            The run's slope map shows it where no slab lies.
     Cells without snow carry their nearest snow-covered neighbour's values (they enter
     the interpolation of the particles beside them).
     """
@@ -221,6 +224,7 @@ class SlopeInputs:
     start_zone: np.ndarray | None = None
     dx: float = 1.0
     area_from_polygon: bool = False
+    terrain_slope_deg: np.ndarray | None = None
 
     def snow_kwargs(self) -> dict[str, Any]:
         """`damjax.core.model.build_slope`'s snow and weak-layer keywords."""
@@ -387,6 +391,7 @@ def _resolve(scn: Any) -> SlopeInputs:
     thickness = None
     cover = domain
     zone = None
+    terrain_slope = None
     if snow is not None:
         thickness, cover = _snow_cover(scn, slope, map_x, map_y, domain)
         s = {**_SNOW_DEFAULTS, **snow}
@@ -402,6 +407,7 @@ def _resolve(scn: Any) -> SlopeInputs:
                 "snow: no cell of the domain holds a slab (snow.max_slope_deg, snow.mask, "
                 "snow.min_thickness, or the DEM's nodata)"
             )
+        terrain_slope = np.asarray(slope, float)
         slope = snow_cover.fill_from_nearest(slope, cover)
         fall = snow_cover.fill_from_nearest(fall, cover)
         if thickness is not None:
@@ -552,6 +558,7 @@ def _resolve(scn: Any) -> SlopeInputs:
         start_zone=zone,
         dx=float(setup.dx),
         area_from_polygon=bool(ter.get("release")),
+        terrain_slope_deg=terrain_slope,
     )
     return inp
 

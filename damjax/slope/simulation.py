@@ -1232,8 +1232,14 @@ def run(
         tension=cm(final.sigma[0]),
         opening=cm(final.opening),
         tau_peak=cm(model.weak_layer.tau_peak),
-        slope_deg=cm(
-            np.degrees(np.arcsin(np.clip(np.hypot(*np.asarray(model.g_tangent)) / G_ACC, 0, 1)))
+        slope_deg=_terrain_slope(
+            cm(
+                np.degrees(np.arcsin(np.clip(np.hypot(*np.asarray(model.g_tangent)) / G_ACC, 0, 1)))
+            ),
+            snow_map,
+            # a scenario's source keeps the terrain's angle where it filled the input's
+            getattr(prep.source, "terrain_slope_deg", None),
+            prep.slope_deg,
         ),
         snapshots=snapshots,
         summary=summary,
@@ -1242,6 +1248,18 @@ def run(
         thickness=h0,
         snow=snow_map,
     )
+
+
+def _terrain_slope(
+    particle_map: np.ndarray, snow_map: np.ndarray, terrain_deg: Any, slope_deg: Any
+) -> np.ndarray:
+    """The slope-angle map [deg] of a run: the particles' own angle where snow lies, the
+    terrain's where it does not (a rock face has its angle though no slab lies on it):
+    ``terrain_deg`` (a map of the cells; NaN off the DEM's data), else the run's input
+    ``slope_deg`` (scalar or map)."""
+    src = slope_deg if terrain_deg is None else terrain_deg
+    terrain = np.broadcast_to(np.asarray(src, float), particle_map.shape)
+    return np.where(snow_map, particle_map, terrain)
 
 
 def steepest_covered(slope_deg: Any, cover: Any = None) -> float:
