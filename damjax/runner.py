@@ -192,9 +192,9 @@ def input_files(scn: Scenario) -> list[Path]:
             if p.is_file():
                 found.append(p)
                 for ext in _SIDECARS.get(p.suffix.lower(), ()):
-                    side = p.with_suffix(ext)
-                    if side.is_file():
-                        found.append(side)
+                    for side in (p.with_suffix(ext), p.with_suffix(ext.upper())):
+                        if side.is_file():  # FOREST.SHP's FOREST.DBF too
+                            found.append(side)
 
     walk(scn.to_dict())
     return sorted(set(found))

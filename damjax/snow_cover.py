@@ -137,11 +137,13 @@ POLYGON_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".fgb")
 
 def polygon_mask(
     file: str | os.PathLike, px: np.ndarray, py: np.ndarray, *, key: str = "snow.mask"
-) -> tuple[np.ndarray, str | None]:
+) -> tuple[np.ndarray, str | None, tuple[float, float, float, float]]:
     """Which map points px, py [m] lie inside a polygon of a vector layer (a forest or
-    rock layer as GIS data holds it: .shp, .gpkg, .geojson; points or lines are ignored),
-    and the layer's CRS as WKT (None: it names none). Unlike a raster mask the layer need
-    not cover the domain: outside its polygons is snow.
+    rock layer as GIS data holds it: .shp, .gpkg, .geojson; points and lines are ignored,
+    the polygons of geometry collections kept, invalid polygons repaired), the layer's CRS
+    as WKT (None: it names none) and the polygons' bounds (xmin, ymin, xmax, ymax) [m].
+    Unlike a raster mask the layer need not cover the domain: outside its polygons is
+    snow.
 
     Raises:
         ValueError: no such file, unreadable, or no polygon in it (naming ``key``).
@@ -152,26 +154,43 @@ def polygon_mask(
     except ImportError:  # pragma: no cover
         raise ValueError(f"{key}: a polygon mask needs geopandas and shapely") from None
     name = repr(os.path.basename(str(file)))
+    if os.path.isdir(file):
+        raise ValueError(
+            f"{key} = {name}: is a folder; give the layer's file (.shp, .gpkg, .geojson)"
+        )
     if not os.path.isfile(file):
         raise ValueError(f"{key} = {name}: no such file")
+    base, ext = os.path.splitext(str(file))
+    if ext.lower() == ".shp" and not any(os.path.isfile(base + e) for e in (".shx", ".SHX")):
+        raise ValueError(
+            f"{key} = {name}: its index file {os.path.basename(base)}.shx is missing beside "
+            "it (a shapefile is the .shp with its .shx, .dbf and .prj)"
+        )
     try:
         gdf = gpd.read_file(file)
     except Exception as exc:  # noqa: BLE001 (any reader failure is the file's problem)
-        msg = " ".join(str(exc).split())
-        raise ValueError(f"{key} = {name}: unreadable ({msg})") from None
-    polys = [
-        g for g in gdf.geometry if g is not None and g.geom_type in ("Polygon", "MultiPolygon")
-    ]
+        # GDAL's own advice (a driver prefix, a config option) does not apply to a key
+        msg = " ".join(str(exc).split()).split("; It might help")[0]
+        raise ValueError(f"{key} = {name}: not a polygon layer GDAL can read ({msg})") from None
+    parts = shapely.get_parts(np.asarray([g for g in gdf.geometry if g is not None]))
+    while parts.size and np.any(shapely.get_num_geometries(parts) > 1):  # nested
+        parts = shapely.get_parts(parts)
+    polys = [g for g in parts if g.geom_type == "Polygon" and not g.is_empty]
     if not polys:
         raise ValueError(
             f"{key} = {name}: holds no polygon (a mask layer of polygons: forest, rock)"
         )
-    geom = shapely.union_all(polys)
+    try:
+        # a self-intersecting polygon (a bow tie) is repaired, as GIS tools do
+        geom = shapely.union_all(shapely.make_valid(np.asarray(polys)))
+    except shapely.errors.GEOSException as exc:
+        raise ValueError(f"{key} = {name}: its polygons cannot be merged ({exc})") from None
     shapely.prepare(geom)
     px, py = np.broadcast_arrays(np.asarray(px, float), np.asarray(py, float))
     # a point on a polygon's boundary counts as inside, as a rasterised cell would
     inside = np.asarray(shapely.intersects_xy(geom, px, py), bool)
-    return inside, (gdf.crs.to_wkt() if gdf.crs is not None else None)
+    crs = gdf.crs.to_wkt() if gdf.crs is not None else None
+    return inside, crs, tuple(float(b) for b in geom.bounds)
 
 
 def raster_covers(r: Any, px: np.ndarray, py: np.ndarray) -> np.ndarray:

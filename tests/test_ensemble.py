@@ -209,6 +209,9 @@ def test_members_equal_the_same_seeds_run_one_by_one(full_run):
         got = float(ds["upslope_arrest_distance_m"].values[i])
         assert (np.isnan(got) and arrest is None) or got == pytest.approx(arrest), arrest
         assert [float(ds["start_x"][i]), float(ds["start_y"][i])] == r.summary["start_m"]
+        # the terrain's maps, once for all members
+        np.testing.assert_array_equal(ds["snow"].values, r.snow)
+        np.testing.assert_allclose(ds["slope_angle"].values, r.slope_deg, rtol=1e-6)
     # the products
     prob = ds["released"].values.mean(axis=0)
     np.testing.assert_allclose(ds["release_probability"].values, prob, rtol=1e-6)

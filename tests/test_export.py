@@ -207,6 +207,7 @@ def test_ensemble_probability_and_zones(run_dir, tmp_path):
             "released": (("member", "x", "y"), members.astype(np.int8)),
             "height": (("member", "x", "y"), np.stack([ds["height"].values] * 3)),
             "release_probability": (("x", "y"), members.mean(0).astype(np.float32)),
+            "snow": (("x", "y"), np.ones(rel.shape, np.int8)),
         },
         coords={"x": ds["x"].values, "y": ds["y"].values},
     )
@@ -223,6 +224,13 @@ def test_ensemble_probability_and_zones(run_dir, tmp_path):
     zones = gpd.read_file(files["zones_gpkg"])
     assert zones["mean_prob"].iloc[0] == pytest.approx(2 / 3)
     assert len(gis.release_zones(ens, gis.frame_of(ens, scn), threshold=0.7)) == 0
+    # cells without snow: no data, not a probability of 0
+    ens["snow"][:, : ens.sizes["y"] // 2] = 0
+    ens.to_netcdf(tmp_path / "ensemble2.nc", engine="h5netcdf")
+    files = gis.export_gis(tmp_path / "ensemble2.nc", tmp_path / "gis2", scenario=scn)
+    with rasterio.open(files["release_probability"]) as src:
+        q = src.read(1)
+    assert np.isnan(q).sum() > np.isnan(p).sum() and np.nanmin(q) >= 0.0
 
 
 def test_missing_inputs_are_one_line_errors(tmp_path):

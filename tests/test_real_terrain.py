@@ -257,6 +257,36 @@ def test_a_polygon_mask_is_the_raster_mask_it_draws(tmp_path):
         quiet_parse(_dem_doc(dem, mask="pt.shp"), base_dir=tmp_path)
     with pytest.raises(ValueError, match=r"snow.mask = 'none.shp': no such file"):
         quiet_parse(_dem_doc(dem, mask="none.shp"), base_dir=tmp_path)
+    (tmp_path / "dir.gpkg").mkdir()
+    with pytest.raises(ValueError, match=r"snow.mask = 'dir.gpkg': is a folder"):
+        quiet_parse(_dem_doc(dem, mask="dir.gpkg"), base_dir=tmp_path)
+    (tmp_path / "csv.geojson").write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match=r"'csv.geojson': not a polygon layer GDAL can read"):
+        quiet_parse(_dem_doc(dem, mask="csv.geojson"), base_dir=tmp_path)
+    (tmp_path / "stand.shx").unlink()
+    with pytest.raises(ValueError, match=r"'stand.shp': its index file stand.shx is missing"):
+        quiet_parse(_dem_doc(dem, mask="stand.shp"), base_dir=tmp_path)
+    # a bow tie overlapping a second polygon is repaired, not a GEOS error; polygons in a
+    # geometry collection count; a layer that misses the domain warns
+    from shapely.geometry import GeometryCollection, LineString, Polygon
+
+    bow = Polygon([(10, 20), (14, 24), (14, 20), (10, 24)])
+    gpd.GeoDataFrame(geometry=[bow, box(12, 21, 16, 23)], crs=2056).to_file(tmp_path / "bow.gpkg")
+    inp = slope_fields.resolve_inputs(
+        quiet_parse(_dem_doc(dem, max_slope_deg=60.0, mask="bow.gpkg"), base_dir=tmp_path)
+    )
+    assert 0 < np.sum(~inp.cover) < stand.sum() * 2
+    coll = GeometryCollection([LineString([(0, 0), (1, 1)]), box(10.0, 20.0, 14.0, 24.0)])
+    gpd.GeoDataFrame(geometry=[coll], crs=2056).to_file(tmp_path / "coll.geojson")
+    inp = slope_fields.resolve_inputs(
+        quiet_parse(_dem_doc(dem, max_slope_deg=60.0, mask="coll.geojson"), base_dir=tmp_path)
+    )
+    assert np.array_equal(~inp.cover, stand)
+    gpd.GeoDataFrame(geometry=[box(500.0, 500.0, 600.0, 600.0)], crs=2056).to_file(
+        tmp_path / "far.gpkg"
+    )
+    with pytest.warns(UserWarning, match=r"snow.mask = 'far.gpkg': no polygon reaches the domain"):
+        scenario.parse(_dem_doc(dem, max_slope_deg=60.0, mask="far.gpkg"), base_dir=tmp_path)
     pyproj = pytest.importorskip("pyproj")
     (tmp_path / "dem.prj").write_text(pyproj.CRS.from_epsg(2056).to_wkt())
     forest.set_crs(21781, allow_override=True).to_file(tmp_path / "forest21781.gpkg")

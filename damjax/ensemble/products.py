@@ -169,6 +169,10 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
     data["slope_angle"] = var(
         ("x", "y"), r0.slope_deg.astype(np.float32), "degree", "local slope angle"
     )
+    if r0.snow is not None:  # the terrain's snow cover: the same in every member
+        data["snow"] = var(
+            ("x", "y"), np.asarray(r0.snow).astype(np.int8), "1", "cell holds a slab (0/1)"
+        )
     summaries = [{k: v for k, v in r.summary.items() if k not in TIMING_KEYS} for r in results]
     ds = xr.Dataset(
         data,
@@ -259,14 +263,17 @@ def assemble(out_dir: str | os.PathLike[str], members: int, key: str | None = No
     if not parts:
         raise ValueError(f"{out_dir}: no finished members")
     summaries = sum((json.loads(p.attrs["summaries"])[: p.sizes["member"]] for p in parts), [])
-    slope_angle = parts[0]["slope_angle"]
-    ds = drop_string_widths(xr.concat([p.drop_vars("slope_angle") for p in parts], dim="member"))
+    # maps of the terrain, not of a member: kept once
+    shared = [v for v in ("slope_angle", "snow") if v in parts[0]]
+    kept = {v: parts[0][v] for v in shared}
+    ds = drop_string_widths(xr.concat([p.drop_vars(shared) for p in parts], dim="member"))
     ds = ds.sortby("member")
     have = ds["member"].values
     if have.size != members or not np.array_equal(have, np.arange(members)):
         missing = sorted(set(range(members)) - set(have.tolist()))
         raise ValueError(f"{out_dir}: members {missing[:10]} not finished")
-    ds["slope_angle"] = slope_angle
+    for v, a in kept.items():
+        ds[v] = a
     prob = ds["released"].astype(np.float64).mean("member")
     ds["release_probability"] = prob.astype(np.float32)
     ds["release_probability"].attrs = {

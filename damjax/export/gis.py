@@ -414,6 +414,8 @@ def write_geotiffs(
     layers: list[tuple[str, np.ndarray, Any, str, str]] = []
     if "release_probability" in ds:
         prob = np.asarray(ds["release_probability"].values, dtype=np.float32)
+        if "snow" in ds:  # no snow: no data, not a probability of 0
+            prob = np.where(np.asarray(ds["snow"].values, dtype=bool), prob, np.float32(np.nan))
         layers.append(
             ("release_probability", prob, np.nan, "1", "release probability (member mean)")
         )

@@ -663,8 +663,9 @@ def _snow_strength_rules(
         for key in ("file", "mask"):
             if key in snow:
                 if not dem:
+                    what = "a raster or polygons" if key == "mask" else "a raster"
                     problems.append(
-                        f'snow.{key}: a raster in the DEM\'s coordinates needs terrain.kind = "dem"'
+                        f'snow.{key}: {what} in the DEM\'s coordinates needs terrain.kind = "dem"'
                     )
                 snow[key] = str(_resolve_path(snow[key], base_dir))
         if snow["kind"] == "depth_map" and "file" not in snow:

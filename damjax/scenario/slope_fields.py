@@ -611,7 +611,7 @@ def _snow_cover(
             )
     mask = None
     if "mask" in sn and str(sn["mask"]).lower().endswith(snow_cover.POLYGON_SUFFIXES):
-        mask = _snow_polygons(scn, map_x, map_y)
+        mask = _snow_polygons(scn, map_x, map_y, domain)
     elif "mask" in sn:
         m = _snow_raster(scn, "mask", map_x, map_y, domain, nearest=True)
         mask = np.isfinite(m) & (m != 0)
@@ -631,18 +631,30 @@ def _snow_cover(
     return thickness, cov
 
 
-def _snow_polygons(scn: Any, map_x: Any, map_y: Any) -> np.ndarray:
+def _snow_polygons(scn: Any, map_x: Any, map_y: Any, domain: Any) -> np.ndarray:
     """The cells inside the polygons of ``snow.mask`` (a vector layer in the DEM's CRS):
-    no snow there (`damjax.snow_cover.polygon_mask`)."""
+    no snow there (`damjax.snow_cover.polygon_mask`); a warning when none lies in the
+    domain (a layer of another region, or in another CRS without a .prj)."""
     file = scn.snow["mask"]
     name = repr(os.path.basename(str(file)))
     if map_x is None or map_y is None:
         raise _FieldProblem('snow.mask: polygons need a DEM terrain (terrain.kind = "dem")')
     try:
-        inside, crs = snow_cover.polygon_mask(file, map_x, map_y)
+        inside, crs, bounds = snow_cover.polygon_mask(file, map_x, map_y)
     except ValueError as exc:
         raise _FieldProblem(str(exc)) from None
     _check_crs(scn, "mask", name, crs)
+    cells = np.ones(np.shape(map_x), bool) if domain is None else np.asarray(domain, bool)
+    if not np.any(inside & cells):
+        x0, y0, x1, y1 = bounds
+        warnings.warn(
+            f"snow.mask = {name}: no polygon reaches the domain, nothing is masked (the "
+            f"polygons span x [{x0:.1f}, {x1:.1f}], y [{y0:.1f}, {y1:.1f}]; the domain x "
+            f"[{np.min(map_x[cells]):.1f}, {np.max(map_x[cells]):.1f}], y "
+            f"[{np.min(map_y[cells]):.1f}, {np.max(map_y[cells]):.1f}] m, the DEM's CRS"
+            f"{'' if crs else '; the layer names no CRS'})",
+            stacklevel=2,
+        )
     return inside
 
 
