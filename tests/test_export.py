@@ -333,3 +333,12 @@ def test_cli_export_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main(["export", str(tmp_path), str(tmp_path / "out"), *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("damjax: error: ") and message in err[0], err
+
+
+def test_an_unknown_crs_is_one_line_without_gdal_s_own(run_dir, capfd):
+    """--crs EPSG:999999 is refused in damjax's words, and GDAL prints nothing beside them."""
+    ds = gis.open_run(run_dir)
+    with pytest.raises(ValueError, match=r"crs = 'EPSG:999999': not a coordinate reference"):
+        gis.frame_of(ds, crs="EPSG:999999")
+    assert "ERROR" not in capfd.readouterr().err
+    assert gis.frame_of(ds, crs="EPSG:2056").crs.to_epsg() == 2056

@@ -266,8 +266,14 @@ def frame_of(
     if crs is not None:
         crs_mod = need("rasterio.crs")
         try:
-            user_crs = crs_mod.CRS.from_user_input(crs)
-        except Exception as exc:  # noqa: BLE001 - rasterio's CRSError (GDAL's words)
+            try:  # pyproj first: it refuses an unknown code without GDAL printing a line
+                import pyproj
+
+                wkt = pyproj.CRS.from_user_input(crs).to_wkt() if isinstance(crs, str) else crs
+            except ImportError:  # pragma: no cover
+                wkt = crs
+            user_crs = crs_mod.CRS.from_user_input(wkt)
+        except Exception as exc:  # noqa: BLE001 - pyproj's or rasterio's CRSError
             raise ValueError(
                 f"crs = {crs!r}: not a coordinate reference system rasterio reads "
                 f"(e.g. EPSG:2056, or WKT; {' '.join(str(exc).split())})"
