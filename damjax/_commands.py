@@ -51,3 +51,15 @@ def dispatch(func: Callable[[Any], int], ns: Any, interrupted: str = "damjax: in
     except OSError as exc:  # unreadable input, unwritable output folder, full disk
         sys.stderr.write(f"damjax: error: {' '.join(str(exc).split())}\n")
         return 1
+
+
+def add_set_flag(p: Any) -> None:
+    """``--set KEY=VALUE`` (repeatable): a scenario key changed for this run."""
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        default=None,
+        help="change a scenario key for this run, e.g. --set setup.duration=0.5 --set "
+        "strength.seed=3 (a TOML value; a bare word is a string; repeatable)",
+    )

@@ -31,6 +31,7 @@ import warnings
 from typing import Any, NoReturn
 
 from damjax._commands import Parser as _Parser
+from damjax._commands import add_set_flag as _add_set_flag
 from damjax._commands import dispatch
 from damjax.params import PSTParams, PSTSetup, Spec, specs
 
@@ -440,10 +441,11 @@ def cmd_run(ns: argparse.Namespace) -> int:
         path = scenario.resolve(ns.scenario)
         _refuse_ensemble(path, ns.scenario)
         try:
+            sets = getattr(ns, "set", None) or ()
             if getattr(ns, "release_area", None):
-                scn = _load_with_release(path, ns.release_area)
+                scn = _load_with_release(path, ns.release_area, sets)
             else:
-                scn = scenario.load(path)
+                scn = scenario.load(path, sets=sets)
         except ValueError as exc:
             raise ValueError(
                 "\n".join(
@@ -466,9 +468,10 @@ def cmd_run(ns: argparse.Namespace) -> int:
     return _report(outcome, ns.json)
 
 
-def _load_with_release(path: Any, release: str) -> Any:
+def _load_with_release(path: Any, release: str, sets: Any = ()) -> Any:
     """``--release-area FILE``: a DEM slope scenario with terrain.release = FILE (the
-    polygon then sets terrain.origin and setup.length / width, which are dropped)."""
+    polygon then sets terrain.origin and setup.length / width, which are dropped), and
+    the ``--set`` overrides."""
     import tomllib
     from pathlib import Path
 
@@ -485,7 +488,7 @@ def _load_with_release(path: Any, release: str) -> Any:
     ter.pop("origin", None)
     for key in ("length", "width"):
         data.get("setup", {}).pop(key, None)
-    return scenario.parse(data, base_dir=Path(path).parent)
+    return scenario.parse(scenario.override(data, sets), base_dir=Path(path).parent)
 
 
 def cmd_resume(ns: argparse.Namespace) -> int:
@@ -585,6 +588,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="output folder (default ./damjax-out/<name>); a finished run's files there are "
         "replaced (with a warning if it was another scenario's)",
     )
+    _add_set_flag(p)
     p.add_argument(
         "--release-area",
         metavar="FILE",

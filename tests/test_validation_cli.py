@@ -424,3 +424,50 @@ def test_settings_a_slab_law_does_not_use_are_reported_as_ignored(capsys):
         assert needle in capsys.readouterr().err, extra
     assert main(small + ["--tensile-strength", "6000", "--mcc-xi", "0.5"]) == 0
     assert "ignored" not in capsys.readouterr().err  # the plastic slab uses mcc_xi
+
+
+def test_set_overrides_a_scenario_key_and_is_checked_like_the_file(tmp_path, capsys):
+    """`--set KEY=VALUE` changes a scenario key for one run (TOML values, bare words as
+    strings, nested tables made), the run's stored scenario keeps it, and a wrong key,
+    value or form is the scenario's one-line error."""
+    from damjax import scenario
+
+    data = scenario.override(
+        {"setup": {"dx": 0.1}},
+        [
+            "setup.duration=0.25",
+            "setup.chunk_steps=40",
+            "strength.kind=grf",
+            'strength.model="exponential"',
+            "setup.start=[3.0, 2.0]",
+            "output.plot=false",
+            "ensemble.params.softening.dist = uniform",
+        ],
+    )
+    assert data["setup"] == {"dx": 0.1, "duration": 0.25, "chunk_steps": 40, "start": [3.0, 2.0]}
+    assert data["strength"] == {"kind": "grf", "model": "exponential"}
+    assert data["output"]["plot"] is False
+    assert data["ensemble"]["params"]["softening"]["dist"] == "uniform"
+    for bad, match in (
+        ("duration", "must be KEY=VALUE"),
+        ("=1", "must be KEY=VALUE"),
+        ("setup..dx=1", "must be KEY=VALUE"),
+        ("setup.dx.x=1", "setup.dx is a value, not a table"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            scenario.override({"setup": {"dx": 0.1}}, [bad])
+    out = tmp_path / "run"
+    rc = main(["run", "quick", "--set", "setup.duration=0.05", "--out", str(out), "--quiet"])
+    assert rc == 0
+    from damjax import runner
+
+    assert runner.load_result(out)[0].setup.duration == 0.05  # the run's stored scenario
+    capsys.readouterr()
+    for bad, needle in (
+        ("setup.durtion=0.1", "setup.durtion: unknown key (did you mean 'setup.duration'?)"),
+        ("setup.duration=abc", 'setup.duration = "abc": must be a number in (0, inf) s'),
+        ("duration", "--set duration: must be KEY=VALUE"),
+    ):
+        rc = main(["run", "quick", "--set", bad, "--out", str(tmp_path / "bad"), "--quiet"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and needle in err[0], err

@@ -11,7 +11,7 @@ from typing import Any
 import jax
 
 from damjax import distributed, io
-from damjax._commands import dispatch
+from damjax._commands import add_set_flag, dispatch
 from damjax.ensemble.batch import run
 from damjax.ensemble.products import ENSEMBLE_FILE, FIGURE, QUANTILE_KEYS, SUMMARY_FILE
 from damjax.ensemble.spec import load
@@ -22,6 +22,7 @@ DESCRIPTION = "Release-probability ensemble of a slope scenario (damjax.ensemble
 def add_arguments(p: Any) -> None:
     """The flags of ``damjax ensemble`` on an argparse parser."""
     p.add_argument("scenario", help="slope scenario: TOML file or shipped name")
+    add_set_flag(p)
     p.add_argument(
         "--members",
         type=int,
@@ -103,7 +104,7 @@ def command(ns: Any) -> int:
         distributed.initialize(ns.coordinator, ns.num_processes, ns.process_id)
     elif ns.distributed:
         distributed.initialize()
-    ens = load(ns.scenario, members=ns.members)
+    ens = load(ns.scenario, members=ns.members, sets=getattr(ns, "set", None) or ())
     out = Path(ns.out) if ns.out else Path("damjax-out") / f"{ens.scenario.name}-ensemble"
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a folder")

@@ -295,9 +295,11 @@ def from_scenario(
     return ens
 
 
-def load(name_or_path: str | Path, members: int | None = None) -> Ensemble:
+def load(name_or_path: str | Path, members: int | None = None, sets: Any = ()) -> Ensemble:
     """Read a slope scenario file (path or shipped name) with its optional ``[ensemble]``
-    table; ``members`` overrides ``ensemble.members``. ValueError on problems."""
+    table; ``members`` overrides ``ensemble.members``, ``sets`` are ``"section.key=value"``
+    overrides (`damjax.scenario.override`, ``ensemble.*`` keys too). ValueError on
+    problems."""
     import tomllib
 
     path = resolve(name_or_path)
@@ -305,6 +307,10 @@ def load(name_or_path: str | Path, members: int | None = None) -> Ensemble:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ValueError(f"{path}: cannot read: {' '.join(str(exc).split())}") from None
+    if sets:
+        from damjax.scenario import override
+
+        data = override(data, sets)
     table = data.pop("ensemble", {})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)

@@ -258,14 +258,54 @@ def resolve(name_or_path: str | Path) -> Path:
 # --------------------------------------------------------------------------- reading
 
 
-def load(name_or_path: str | Path, *, warn: bool = True) -> Scenario:
-    """Read and validate a scenario file (path or shipped name); ValueError on problems."""
+def load(name_or_path: str | Path, *, warn: bool = True, sets: Iterable[str] = ()) -> Scenario:
+    """Read and validate a scenario file (path or shipped name); ValueError on problems.
+
+    ``sets``: ``"section.key=value"`` overrides (`override`), applied before the checks.
+    """
     path = resolve(name_or_path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot read: {exc}") from None
-    return loads(text, warn=warn, base_dir=path.parent)
+    if not sets:
+        return loads(text, warn=warn, base_dir=path.parent)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError("invalid TOML: " + " ".join(str(exc).split())) from None
+    return parse(override(data, sets), warn=warn, base_dir=path.parent)
+
+
+def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
+    """``data`` (a scenario as `tomllib` reads it, changed in place and returned) with each
+    ``"section.key=value"`` of ``sets`` applied (the command line's ``--set``): the value
+    is read as a TOML value (``0.5``, ``true``, ``"grf"``, ``[1.0, 2.0]``), else as a string
+    (``strength.kind=stability``); dotted keys reach nested tables
+    (``ensemble.params.softening.dist=uniform``). The scenario's checks then name a key or
+    value that is not valid. ValueError on a malformed assignment."""
+    for item in sets:
+        key, eq, text = str(item).partition("=")
+        key, text = key.strip(), text.strip()
+        parts = key.split(".")
+        if not eq or not key or not all(re.fullmatch(r"[A-Za-z0-9_-]+", k) for k in parts):
+            raise ValueError(
+                f"--set {item}: must be KEY=VALUE with KEY a scenario key such as "
+                "setup.duration or strength.seed (sections and keys joined by dots)"
+            )
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text  # a bare word: a string
+        table = data
+        for depth, k in enumerate(parts[:-1]):
+            sub = table.setdefault(k, {})
+            if not isinstance(sub, dict):
+                where = ".".join(parts[: depth + 1])
+                raise ValueError(f"--set {item}: {where} is a value, not a table")
+            table = sub
+        table[parts[-1]] = value
+    return data
 
 
 def loads(text: str, *, warn: bool = True, base_dir: str | Path | None = None) -> Scenario:
