@@ -91,6 +91,19 @@ def _dem_doc(dem, **snow) -> dict:
     }
 
 
+def _cell_map_points(dem, scn):
+    """The raw DEM slope angle [deg] and the map points [m] of the scenario's cell
+    centres (origin (1, 1), up-slope +x as `_dem_doc`)."""
+    psi, _, px, py = slope_fields.dem_fields(
+        __import__("damjax").terrain.load_dem(dem),
+        *slope_fields.cell_centres(scn.setup),
+        (1.0, 1.0),
+        "+x",
+        map_points=True,
+    )
+    return psi, px, py
+
+
 def test_no_particle_on_steep_or_masked_cells(tmp_path):
     """Cells steeper than snow.max_slope_deg and cells under snow.mask hold no particle
     (and the rest of the domain does)."""
@@ -98,13 +111,7 @@ def test_no_particle_on_steep_or_masked_cells(tmp_path):
     doc = _dem_doc(dem, max_slope_deg=60.0, mask="forest.asc")
     scn = quiet_parse(doc, base_dir=tmp_path)
     inp = slope_fields.resolve_inputs(scn)
-    psi_raw, _, px, py = slope_fields.dem_fields(
-        __import__("damjax").terrain.load_dem(dem),
-        *slope_fields.cell_centres(scn.setup),
-        (1.0, 1.0),
-        "+x",
-        map_points=True,
-    )
+    psi_raw, px, py = _cell_map_points(dem, scn)
     steep = psi_raw > 60.0
     masked = py < 7.5  # the mask's nearest pixel is 1 below y = 7.5 m (map)
     assert steep.any() and masked.any() and (~steep & ~masked).any()
@@ -240,13 +247,7 @@ def test_a_polygon_mask_is_the_raster_mask_it_draws(tmp_path):
     )
     scn = quiet_parse(_dem_doc(dem, max_slope_deg=60.0, mask="stand.shp"), base_dir=tmp_path)
     inp = slope_fields.resolve_inputs(scn)
-    _, _, px, py = slope_fields.dem_fields(
-        __import__("damjax").terrain.load_dem(dem),
-        *slope_fields.cell_centres(scn.setup),
-        (1.0, 1.0),
-        "+x",
-        map_points=True,
-    )
+    _, px, py = _cell_map_points(dem, scn)
     stand = (px >= 10.0) & (px <= 14.0) & (py >= 20.0) & (py <= 24.0)
     assert 16 * 16 < stand.sum() < 16 * 24  # 4 m of map across, 4 m / cos(30 deg) along
     assert np.array_equal(~inp.cover, stand)
