@@ -560,17 +560,6 @@ def _snow_cover_problems(
                     setup=SlopeSetup,
                 )
             )
-    holes = cover is not None and not np.all(np.asarray(cover, bool))
-    if holes and setup.slab_fracture == "crack_band" and is_plastic(params) is not False:
-        out.append(
-            Problem(
-                "slab_fracture",
-                setup.slab_fracture,
-                "needs a particle in every cell (its band openings sum over the particles' "
-                'lattice), and the snow cover leaves cells empty; use "paper"',
-                setup=SlopeSetup,
-            )
-        )
     return out
 
 

@@ -17,6 +17,7 @@ from damjax import PSTParams, SlopeSetup, fields, scenario, simulate_slope, snow
 from damjax.core.loop import integrate
 from damjax.core.model import build_slope, make_slope_layout
 from damjax.scenario import slope_fields
+from damjax.slope import simulation
 from damjax.slope.simulation import (
     arrival_sources,
     domain_edge_fraction,
@@ -220,6 +221,30 @@ def test_a_start_on_a_cell_without_snow_is_refused():
     setup = dataclasses.replace(setup, start=(1.0, 1.0), duration=0.002)
     with pytest.warns(UserWarning, match="tau_peak is not used with stability"):
         simulate_slope(SLAB, setup, slope_deg=38.0, tau_peak=900.0, stability=1.4)
+
+
+def test_the_crack_band_slab_runs_on_a_snow_cover_with_gaps(tmp_path):
+    """The crack-band slab sums its band openings over the particles' lattice: on a
+    cover with gaps (rock above the snow limit, a mask) the lattice keeps its sites and
+    the sites without snow open by 0; on a full cover no site index is kept (the model
+    of earlier versions)."""
+    dem = _tilted_dem(tmp_path, steep_from=4.0)
+    doc = _dem_doc(dem, max_slope_deg=60.0, mask="forest.asc")
+    doc["setup"]["slab_fracture"] = "crack_band"
+    scn = quiet_parse(doc, base_dir=tmp_path)
+    inp = slope_fields.resolve_inputs(scn)
+    assert not inp.cover.all()
+    prep = slope_fields.prepare(scn)
+    model = simulation.build(prep)[0]
+    sites = np.asarray(model.fracture.lattice_index)
+    assert sites.size == inp.cover.sum() and np.array_equal(
+        np.flatnonzero(inp.cover.ravel()), np.sort(sites)
+    )
+    res = quiet(slope_fields.simulate, scn)
+    assert res.summary["fault"] is None and res.summary["release_area_m2"] > 0.0
+    assert np.all(np.isfinite(res.height[inp.cover]))
+    full = quiet_parse(_plain_doc(setup={**_plain_doc()["setup"], "slab_fracture": "crack_band"}))
+    assert simulation.build(slope_fields.prepare(full))[0].fracture.lattice_index is None
 
 
 def test_a_polygon_mask_is_the_raster_mask_it_draws(tmp_path):

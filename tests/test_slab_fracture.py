@@ -12,6 +12,7 @@ import dataclasses
 import math
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -151,3 +152,38 @@ def test_fracture_energy_sweeps_like_any_parameter(small_setup, arresting_params
         assert r.summary["arrest_position_m"] == pytest.approx(
             one.summary["arrest_position_m"], abs=0.05
         )
+
+
+def test_band_openings_on_a_lattice_with_gaps_are_the_full_lattice_with_no_opening_there():
+    """A snow cover with gaps (`Fracture.lattice_index`): the particles' band openings are
+    those of the whole lattice whose sites without a particle open by 0 (no slab there),
+    bit for bit, with and without the y part of the opening."""
+    from damjax.materials import slab_fracture as sf
+
+    kw = dict(
+        plastic=True,
+        p0_init=1.0,
+        mcc_m=1.0,
+        mcc_beta=0.5,
+        mcc_xi=0.0,
+        fracture_energy=0.12,
+        cell_width=0.1,
+        crack_band=True,
+        lattice=(12, 10),
+        lattice_spacing=0.1,
+        opening_window=2,
+    )
+    rng = np.random.default_rng(3)
+    keep = rng.random(120) > 0.25
+    keep[40:46] = False  # a gap across a band
+    sites = np.flatnonzero(keep)
+    full = sf.Fracture(**kw)
+    gaps = sf.Fracture(**kw, lattice_index=jnp.asarray(sites, jnp.int32))
+    o = np.where(keep, rng.random(120) * 1e-3, 0.0).astype(np.float32)
+    oy = (o * rng.random(120)).astype(np.float32)
+    for y_full, y_gaps in ((None, None), (jnp.asarray(oy), jnp.asarray(oy[sites]))):
+        want = sf.band_openings(full, jnp.asarray(o), y_full)
+        got = sf.band_openings(gaps, jnp.asarray(o[sites]), y_gaps)
+        for a, b in zip(want, got, strict=True):
+            np.testing.assert_array_equal(np.asarray(a)[sites], np.asarray(b))
+    assert float(np.max(np.asarray(sf.band_openings(full, jnp.asarray(o))[0]))) > 0.0

@@ -443,6 +443,7 @@ def _slab_fracture(
     y_ref: np.ndarray | None,
     extent: float | tuple[float, float],
     lattice_for_paper: bool = True,
+    lattice_index: Any = None,
 ) -> _SlabFractureInputs:
     """The slab law ``plastic`` as given, the slab's tensile strength [Pa] (per particle
     for "crack_band"), its fracture energy G_f [J/m^2] and the static fields of the slab
@@ -457,6 +458,8 @@ def _slab_fracture(
     "paper" keeps sigma_t homogeneous and G_f as given (None: perfectly plastic). An
     elastic slab gets none of it (the same model as without fracture models), nor does a
     "paper" slab with ``lattice_for_paper`` False (the slope: fractures from strains).
+    ``lattice_index``: each particle's flat site in the lattice where the particles do not
+    fill it (a snow cover with gaps, `Fracture.lattice_index`); None: they do, in order.
     """
     dtype = jnp.dtype(setup.dtype)
     crack_band = plastic and setup.slab_fracture == "crack_band"
@@ -473,6 +476,8 @@ def _slab_fracture(
         opening_window=slab_fracture.opening_window(spacing),
         crack_band=crack_band,
     )
+    if lattice_index is not None:
+        kw["lattice_index"] = jnp.asarray(lattice_index, jnp.int32)
     if crack_band:
         tensile = slab_fracture.strength_field(
             int(setup.seed),
@@ -664,6 +669,14 @@ def uniform_value(field: Any) -> Any:
     return field
 
 
+def _sites(xp: np.ndarray, yp: np.ndarray, spacing: float, lattice: tuple[int, int]) -> Any:
+    """Each particle's flat site (x-major) in the lattice of ``spacing`` [m], from its
+    reference position (x, y) [m] at the centre of its site."""
+    i = np.rint(np.asarray(xp) / spacing - 0.5).astype(np.int64)
+    j = np.rint(np.asarray(yp) / spacing - 0.5).astype(np.int64)
+    return i * lattice[1] + j
+
+
 def build_slope(
     params: PSTParams,
     setup: SlopeSetup,
@@ -688,8 +701,8 @@ def build_slope(
     strength: tau_p + mu rho g h0 cos psi). ``outflow``: a particle that slides over the
     grid's edge leaves the run (`State.outflow`) instead of stopping it with a fault.
     The inputs are valid (checked at the edge, `damjax.slope.simulation.prepare`: a cover
-    with snow on some cell, and none with holes under a "crack_band" slab, whose band
-    openings sum over the particles' lattice).
+    with snow on some cell). A "crack_band" slab sums its band openings over the
+    particles' lattice; on a cover with gaps, the sites without snow add no opening.
     """
     dtype = jnp.dtype(setup.dtype)
     f = lambda v: jnp.asarray(v, dtype)  # noqa: E731
@@ -713,15 +726,19 @@ def build_slope(
     # over the release area; "paper": homogeneous, no lattice (as in earlier versions)
     plastic = is_plastic(params)  # None when traced: the layout's (concrete) slab law
     plastic = layout.plastic if plastic is None else plastic
+    lattice = (nx * ppc, ny * ppc)
     fracture = _slab_fracture(
         params,
         setup,
         plastic,
-        (nx * ppc, ny * ppc),
+        lattice,
         xp,
         yp,
         (setup.length, setup.width),
         lattice_for_paper=False,
+        lattice_index=None
+        if xp.size == lattice[0] * lattice[1]
+        else _sites(xp, yp, dx / ppc, lattice),
     )
     psi, fall, tau_p, h0 = pf["psi"], pf["fall"], pf["tau_peak"], pf["thickness"]
     # traced values outside their ranges stop the run

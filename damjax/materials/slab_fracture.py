@@ -144,6 +144,10 @@ class Fracture(eqx.Module):
     # derived (`damjax.core.state.Model.with_constants`): the crack band's w_c [m]
     # (`crack_band_opening`; None: derived where it is used, in every step)
     band_w_c: Any = None
+    # (n,) each particle's flat index in the lattice where some lattice sites hold no
+    # particle (a snow cover with gaps: no slab there, an opening of 0); None: the
+    # particles are the whole lattice, in its order
+    lattice_index: Any = None
 
 
 class StepStart(NamedTuple):
@@ -318,19 +322,37 @@ def band_openings(fracture: Fracture, opening: Any, opening_y: Any = None) -> tu
         w = _window(opening * s, k, jnp.add, 0.0, 0)
         return w, _window(w, k, jnp.maximum, -jnp.inf, 0)
     if opening_y is None:
-        grid = jnp.reshape(opening * s, fracture.lattice)
+        grid = _to_lattice(fracture, opening * s)
         w = [_window(grid, k, jnp.add, 0.0, axis) for axis in (0, 1)]
         spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
-        return tuple(jnp.reshape(jnp.minimum(*a), opening.shape) for a in (w, spread))
+        return tuple(_from_lattice(fracture, jnp.minimum(*a), opening.shape) for a in (w, spread))
     parts = (jnp.maximum(opening - opening_y, 0.0) * s, opening_y * s)
-    w = [
-        _window(jnp.reshape(o, fracture.lattice), k, jnp.add, 0.0, axis)
-        for axis, o in enumerate(parts)
-    ]
+    w = [_window(_to_lattice(fracture, o), k, jnp.add, 0.0, axis) for axis, o in enumerate(parts)]
     spread = [_window(a, k, jnp.maximum, -jnp.inf, axis) for axis, a in enumerate(w)]
     return tuple(
-        jnp.reshape(mcc._sqrt(a[0] * a[0] + a[1] * a[1]), opening.shape) for a in (w, spread)
+        _from_lattice(fracture, mcc._sqrt(a[0] * a[0] + a[1] * a[1]), opening.shape)
+        for a in (w, spread)
     )
+
+
+def _to_lattice(fracture: Fracture, values: Any) -> Any:
+    """Per-particle values (n,) on the 2D lattice: in place, or scattered to the sites
+    of `Fracture.lattice_index` with 0 on the sites without a particle (no slab: no
+    opening)."""
+    sites = getattr(fracture, "lattice_index", None)  # (a lattice-like object has none)
+    if sites is None:
+        return jnp.reshape(values, fracture.lattice)
+    size = math.prod(fracture.lattice)
+    flat = jnp.zeros((size,), values.dtype).at[sites].set(values)
+    return jnp.reshape(flat, fracture.lattice)
+
+
+def _from_lattice(fracture: Fracture, grid: Any, shape: tuple[int, ...]) -> Any:
+    """The lattice's values back at the particles (`_to_lattice` undone)."""
+    sites = getattr(fracture, "lattice_index", None)
+    if sites is None:
+        return jnp.reshape(grid, shape)
+    return jnp.reshape(jnp.reshape(grid, (-1,))[sites], shape)
 
 
 def _window(a: Any, k: int, op: Any, pad_value: float, axis: int) -> Any:
