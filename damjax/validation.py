@@ -485,6 +485,8 @@ def slope_field_problems(
         elif not snow_map and not np.all(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))):
             reason = "must be a finite scalar or a 2D array (nx, ny)"
             bad = ~(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak")))
+            if a.ndim == 0:
+                reason = f"is {a.item()}: must be a finite number in {spec.valid_text}"
             if a.ndim == 2:  # where: a map from a file or a computation
                 i, j = (int(k[0]) for k in np.nonzero(bad))
                 reason += (
@@ -501,7 +503,8 @@ def slope_field_problems(
             reason = must_text(f"{spec.valid_text} ({where})")
         else:
             continue
-        found = (float(np.nanmin(a)), float(np.nanmax(a))) if a.size else (math.nan,) * 2
+        finite = np.isfinite(a) | np.isinf(a)  # (no all-NaN warning from nanmin)
+        found = (float(np.nanmin(a)), float(np.nanmax(a))) if finite.any() else (math.nan,) * 2
         out.append(Problem(name, found, reason, spec.valid_text, form="map", setup=SlopeSetup))
     for name, arr in (("cover", cover), ("domain", domain)):
         if arr is None:

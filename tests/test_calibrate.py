@@ -108,6 +108,12 @@ def test_inversion_and_the_smooth_arrest_check_their_options():
         calibrate.invert([({"strength_gradiant": 1.0}, 4.0)], params, setup, ["softening"])
     with pytest.raises(ValueError, match=r"L_observed = 50.0: must be in \(0, 8\] m"):
         calibrate.invert([({}, 50.0)], params, setup, ["softening"])
+    # one field by its name is that field, not its letters (one line)
+    with pytest.raises(ValueError, match=r"^fields: 'steady_lenght' is not a PSTParams field$"):
+        calibrate.invert(obs, params, setup, "steady_lenght")
+    # arrest positions without their overrides: the form the observations take
+    with pytest.raises(ValueError, match=r"observations: must be a list of \(overrides, L_obs"):
+        calibrate.invert(np.array([5.0, 4.0]), params, setup, "softening")
     assert calibrate.inversion.optimizer_problems(1, 0.1, -1.0) == [
         "tol = -1.0: must be a number in [0, inf)"
     ]

@@ -2,6 +2,7 @@
 gradient in sigma_t points towards the value that produced the observation."""
 
 import math
+import warnings
 
 import jax.numpy as jnp
 import numpy as np
@@ -112,3 +113,19 @@ def test_calibrate_slope_rejects_an_unknown_gradient_or_step(problem):
         sc.calibrate_slope(problem, one_nan, grid, steps=1)
     with pytest.raises(ValueError, match=r"initial tensile_strength = -2500.0: must be a n"):
         sc.calibrate_slope(problem, observed, grid, steps=1, initial={"tensile_strength": -2500})
+    with pytest.raises(ValueError, match=r"\['tensile_strenght'\]"):  # one name, not letters
+        sc.calibrate_slope(problem, observed, grid, steps=1, fields="tensile_strenght")
+
+
+def test_a_slope_problem_warns_of_a_strength_below_the_slab_s_weight_and_names_a_nan_angle():
+    """What simulate_slope says of its inputs, slope_problem says too: a strength map in
+    kPa instead of Pa fails under the slab at once; a NaN slope angle is named."""
+    nx, ny = int(round(L / DX)), int(round(W / DX))
+    setup = SlopeSetup(length=L, width=W, dx=DX, duration=0.1, start=(1.0, W / 2))
+    kpa = np.linspace(1.0, 4.3, nx * ny).reshape(nx, ny)
+    with pytest.warns(UserWarning, match=r"on 100 % of the area.*in kPa instead of Pa"):
+        sc.slope_problem(fig12_params(), setup, slope_deg=35.0, tau_peak=kpa)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no all-NaN RuntimeWarning either
+        with pytest.raises(ValueError, match=r"slope_deg field: is nan: must be a finite number"):
+            sc.slope_problem(fig12_params(), setup, slope_deg=math.nan, tau_peak=1000.0)

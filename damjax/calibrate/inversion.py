@@ -93,6 +93,26 @@ def optimizer_problems(steps: Any, learning_rate: Any, tol: Any = None) -> list[
     return out
 
 
+def _observation_pairs(observations: Any) -> list[tuple[dict[str, float], float]]:
+    """``observations`` as a list of (overrides, L_observed) pairs; ValueError naming the
+    form when it is not one (a plain array of arrest positions has no overrides)."""
+    form = (
+        "observations: must be a list of (overrides, L_observed) pairs, e.g. "
+        '[({"strength_gradient": 500.0}, 6.9), ...]: each PST its overrides of params0 '
+        "(a dict, {} for none) and its observed arrest position [m]"
+    )
+    try:
+        pairs = list(observations)
+    except TypeError:
+        raise ValueError(form) from None
+    for p in pairs:
+        if isinstance(p, (str, bytes)) or not hasattr(p, "__len__") or len(p) != 2:
+            raise ValueError(form)
+        if not isinstance(p[0], dict):
+            raise ValueError(form)
+    return [(dict(p[0]), p[1]) for p in pairs]
+
+
 def invert(
     observations: Sequence[tuple[dict[str, float], float]],
     params0: Any,
@@ -124,6 +144,9 @@ def invert(
     included, not the last: Adam's iterates oscillate around the minimum. ``steps`` Adam
     updates evaluate ``steps + 1`` iterates (`Inversion.history`).
     """
+    if isinstance(fields, str):  # one name, not its letters
+        fields = (fields,)
+    observations = _observation_pairs(observations)
     known = {f.name for f in dataclasses.fields(params0)}
     problems = [f"fields: {f!r} is not a PSTParams field" for f in fields if f not in known]
     if not problems:

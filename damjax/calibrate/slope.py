@@ -44,7 +44,7 @@ from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
 from damjax.materials import mcc, weak_layer
 from damjax.params import PSTParams, SlopeSetup
-from damjax.slope.simulation import SlopeResult, prepare
+from damjax.slope.simulation import SlopeResult, prepare, warn_notes
 from damjax.slope.simulation import particle_damage as slope_particle_damage
 
 CALIBRATED = ("tensile_strength", "softening")
@@ -97,9 +97,9 @@ def slope_problem(
     """
     if not math.isfinite(float(params.tensile_strength)):
         raise ValueError("slope_problem: tensile_strength must be finite (elasto-plastic slab)")
-    layout = prepare(
-        params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg
-    ).layout
+    prep = prepare(params, setup, slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg)
+    warn_notes(prep, stacklevel=2)  # as simulate_slope does (a strength map in kPa?)
+    layout = prep.layout
     model, state, xp, yp = build_slope(params, setup, layout, slope_deg, tau_peak, fall_deg)
     return SlopeProblem(params, setup, layout, model, state, xp, yp)
 
@@ -336,6 +336,8 @@ def calibrate_slope(
     """
     import time
 
+    if isinstance(fields, str):  # one name, not its letters
+        fields = (fields,)
     bad = [f for f in fields if f not in CALIBRATED]
     if bad:
         raise ValueError(f"calibrate_slope: cannot fit {bad}; choose from {CALIBRATED}")

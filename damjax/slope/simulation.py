@@ -768,12 +768,19 @@ def simulate_slope(
         domain=domain,
         **snow,
     )
-    for note in prep.notes:
-        category = SlopeRunWarning if note.category == "slope" else UserWarning
-        warnings.warn(note.text(), category, stacklevel=2)
+    warn_notes(prep, stacklevel=3)
     if traced:
         return _simulate_slope_traced(prep)
     return run(prep, progress=progress, **resume)
+
+
+def warn_notes(prep: PreparedSlope, stacklevel: int = 2) -> None:
+    """Warn the input's notes of a prepared run (`PreparedSlope.notes`): slope notes as
+    `SlopeRunWarning`, the rest (a strength at or below the slab's weight) as
+    UserWarning."""
+    for note in prep.notes:
+        category = SlopeRunWarning if note.category == "slope" else UserWarning
+        warnings.warn(note.text(), category, stacklevel=stacklevel + 1)
 
 
 @dataclasses.dataclass(frozen=True)
