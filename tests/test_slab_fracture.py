@@ -187,3 +187,25 @@ def test_band_openings_on_a_lattice_with_gaps_are_the_full_lattice_with_no_openi
         for a, b in zip(want, got, strict=True):
             np.testing.assert_array_equal(np.asarray(a)[sites], np.asarray(b))
     assert float(np.max(np.asarray(sf.band_openings(full, jnp.asarray(o))[0]))) > 0.0
+
+
+def test_a_slab_too_wide_for_the_doubled_embedding_gets_its_strength_field():
+    """The crack-band slab's strength field on a domain hundreds of metres wide (a real
+    path's buffer on the 0.1 m field grid): the doubled circulant embedding would exceed
+    the GRF's node limit, so each axis is padded by 5 MAX_STRENGTH_LENGTH only; a small
+    slab keeps the embedding, and so the field, it had."""
+    from damjax.fields import embedding_shape
+    from damjax.materials import slab_fracture as sf
+
+    small = (100, 80)
+    assert sf._strength_embedding(small, 0.1, (10.0, 8.0)) == embedding_shape(
+        small, 0.1, sf.MAX_STRENGTH_LENGTH
+    )
+    wide = (8145, 4765)  # 814 m x 476 m
+    with pytest.raises(ValueError, match="periodic embedding would exceed"):
+        embedding_shape(wide, 0.1, sf.MAX_STRENGTH_LENGTH)
+    embed = sf._strength_embedding(wide, 0.1, (814.4, 476.4))
+    pad = 5 * sf.MAX_STRENGTH_LENGTH / 0.1
+    assert all(n + pad <= m < 2 * n for n, m in zip(wide, embed, strict=True))
+    with pytest.raises(ValueError, match=r'slab_fracture = "crack_band": the slab.s tensile'):
+        sf._strength_embedding((30000, 30000), 0.1, (3000.0, 3000.0))

@@ -436,6 +436,33 @@ def p0_and_band(slab: Slab, fracture: Fracture, state: Any, band: Any = None) ->
     return jnp.where(opened, p0_band, p0_intact), p0_band
 
 
+def _strength_embedding(
+    shape: tuple[int, ...], h: float, extent: float | tuple[float, float]
+) -> tuple[int, ...]:
+    """The periodic embedding of the strength field: `damjax.fields.embedding_shape`'s
+    (each axis doubled, plus 5 `MAX_STRENGTH_LENGTH`), or, where that exceeds the GRF's
+    node limit (a slab hundreds of metres wide on the 0.1 m grid), each axis plus the pad
+    only: points of the slab then lie at least 5 MAX_STRENGTH_LENGTH apart across the
+    wrap-around, where the field's correlation (metres) has vanished, and smaller slabs
+    keep the field they had."""
+    import importlib
+
+    g = importlib.import_module("damjax.fields.grf")  # the module (`fields.grf` is its function)
+
+    try:
+        return fields.embedding_shape(shape, h, MAX_STRENGTH_LENGTH)
+    except ValueError:
+        pad = math.ceil(g._EMBED_PAD_LENGTHS * MAX_STRENGTH_LENGTH / h)
+        embed = tuple(g._next_fast_size(int(n) + pad) for n in shape)
+        if math.prod(embed) > g._MAX_EMBED_NODES:
+            raise ValueError(
+                f'setup.slab_fracture = "crack_band": the slab\'s tensile-strength field over '
+                f"{extent} m needs {math.prod(embed):.3g} nodes on its {h} m grid, above "
+                f"{g._MAX_EMBED_NODES:.3g}; a smaller domain"
+            ) from None
+        return embed
+
+
 def strength_field(
     seed: int,
     mean: Any,
@@ -465,7 +492,7 @@ def strength_field(
     else:
         h = FIELD_SPACING[1]
         shape = tuple(int(math.ceil(float(e) / h)) + 2 for e in extent)
-    embed = fields.embedding_shape(shape, h, MAX_STRENGTH_LENGTH)
+    embed = _strength_embedding(shape, h, extent)
     z = fields.grf(
         _key(seed),
         shape,
