@@ -61,5 +61,6 @@ def add_set_flag(p: Any) -> None:
         metavar="KEY=VALUE",
         default=None,
         help="change a scenario key for this run, e.g. --set setup.duration=0.5 --set "
-        "strength.seed=3 (a TOML value; a bare word is a string; repeatable)",
+        "strength.seed=3 (a TOML value; a bare word is a string; nothing after = removes "
+        "the key; repeatable)",
     )

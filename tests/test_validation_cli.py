@@ -448,6 +448,11 @@ def test_set_overrides_a_scenario_key_and_is_checked_like_the_file(tmp_path, cap
     assert data["strength"] == {"kind": "grf", "model": "exponential"}
     assert data["output"]["plot"] is False
     assert data["ensemble"]["params"]["softening"]["dist"] == "uniform"
+    # nothing after "=": the key goes (a key of the strength's former kind)
+    gone = scenario.override(
+        {"strength": {"kind": "constant", "tau_peak": 1e3}}, ["strength.tau_peak="]
+    )
+    assert gone == {"strength": {"kind": "constant"}}
     for bad, match in (
         ("duration", "must be KEY=VALUE"),
         ("=1", "must be KEY=VALUE"),

@@ -282,8 +282,9 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
     ``"section.key=value"`` of ``sets`` applied (the command line's ``--set``): the value
     is read as a TOML value (``0.5``, ``true``, ``"grf"``, ``[1.0, 2.0]``), else as a string
     (``strength.kind=stability``); dotted keys reach nested tables
-    (``ensemble.params.softening.dist=uniform``). The scenario's checks then name a key or
-    value that is not valid. ValueError on a malformed assignment."""
+    (``ensemble.params.softening.dist=uniform``); nothing after ``=`` removes the key
+    (``strength.tau_peak=``: a key of another kind). The scenario's checks then name a key
+    or value that is not valid. ValueError on a malformed assignment."""
     for item in sets:
         key, eq, text = str(item).partition("=")
         key, text = key.strip(), text.strip()
@@ -293,8 +294,9 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
                 f"--set {item}: must be KEY=VALUE with KEY a scenario key such as "
                 "setup.duration or strength.seed (sections and keys joined by dots)"
             )
+        remove = not text
         try:
-            value = tomllib.loads(f"v = {text}")["v"]
+            value = None if remove else tomllib.loads(f"v = {text}")["v"]
         except tomllib.TOMLDecodeError:
             value = text  # a bare word: a string
         table = data
@@ -304,7 +306,10 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
                 where = ".".join(parts[: depth + 1])
                 raise ValueError(f"--set {item}: {where} is a value, not a table")
             table = sub
-        table[parts[-1]] = value
+        if remove:
+            table.pop(parts[-1], None)
+        else:
+            table[parts[-1]] = value
     return data
 
 
