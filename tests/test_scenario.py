@@ -36,8 +36,12 @@ KNOWN = {
     None: set(scenario.TOP_KEYS),
     **{s: {f.name for f in dataclasses.fields(c)} for s, c in SECTION_CLS.items()},
 }
-# a problem line: a TOML key, optionally "= value", then ": what is wrong"
-LINE = re.compile(r"^[A-Za-z_][\w.-]*( = .+)?: \S.*$")
+# a problem line: a TOML key, optionally "= value", then ": what is wrong"; or the keys
+# that together set a size, then what they give ("setup.length, setup.dx and ... give")
+LINE = re.compile(
+    r"^[A-Za-z_][\w.-]*( = .+)?: \S.*$"
+    r"|^([A-Za-z_][\w.-]*, )*[A-Za-z_][\w.-]* and [A-Za-z_][\w.-]* give \S.*$"
+)
 TINY_SETUP = {"length": 5.0, "dx": 0.05, "duration": 0.05, "chunk_steps": 50}
 
 
