@@ -62,5 +62,5 @@ def add_set_flag(p: Any) -> None:
         default=None,
         help="change a scenario key for this run, e.g. --set setup.duration=0.5 --set "
         "strength.seed=3 (a TOML value; a bare word is a string; nothing after = removes "
-        "the key; repeatable)",
+        "the key; a relative file path is taken from the working directory; repeatable)",
     )

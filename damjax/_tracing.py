@@ -10,17 +10,48 @@ take one member at a time. `dtype_name` accepts every way of naming a float dtyp
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import jax
 import numpy as np
 
-__all__ = ["concrete_members", "concrete_tree", "concrete_value", "dtype_name", "is_traced"]
+__all__ = [
+    "concrete_members",
+    "concrete_tree",
+    "concrete_value",
+    "dtype_name",
+    "eager_if_concrete",
+    "is_traced",
+    "under_staging",
+]
 
 
 def is_traced(tree: Any) -> bool:
     """Whether any leaf of ``tree`` is a JAX tracer."""
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(tree))
+
+
+def under_staging() -> bool:
+    """Whether the caller runs inside a staging transform (`jax.jit`, `equinox.filter_jit`,
+    the body of `jax.lax.scan` / `jax.lax.map`, ...): there every JAX operation, even on
+    concrete inputs, returns a tracer, so a run with concrete inputs must be evaluated
+    eagerly (`jax.ensure_compile_time_eval`) to keep its concrete path. False under
+    `jax.grad` and `jax.vmap`, which do not stage what does not depend on their inputs."""
+    import jax.numpy as jnp
+
+    return isinstance(jnp.zeros(()), jax.core.Tracer)
+
+
+def eager_if_concrete(inputs: Any) -> contextlib.AbstractContextManager:
+    """`jax.ensure_compile_time_eval` where ``inputs`` are concrete but the caller stages
+    (`under_staging`: a run captured by, or static under, a jitted function), else a
+    null context. A run that does not depend on the traced inputs is then evaluated
+    once, while tracing, with its whole concrete path (checks, compiled chunks, events),
+    and its result is a constant of the traced function."""
+    if not is_traced(inputs) and under_staging():
+        return jax.ensure_compile_time_eval()
+    return contextlib.nullcontext()
 
 
 def concrete_value(x: Any) -> Any:

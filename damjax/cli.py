@@ -360,7 +360,11 @@ class _WarningPrinter:
 
 def _run_flags(p: argparse.ArgumentParser, checkpoint_help: str) -> None:
     """--json, --quiet and --checkpoint-every, shared by `run` and `resume`."""
-    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the summary and the files written (key files) as one JSON object",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
         "--checkpoint-every", metavar="SECONDS", type=_seconds, default=None, help=checkpoint_help
@@ -380,8 +384,9 @@ def _seconds(text: str) -> float:
 def _report(outcome: Any, as_json: bool) -> int:
     from damjax import io
 
-    if as_json:
-        print(io.to_json(outcome.summary))
+    if as_json:  # the summary, and the files the text lists after it
+        files = {k: str(v) for k, v in outcome.files.items()}
+        print(io.to_json({**outcome.summary, "files": files}))
     else:
         _print_summary({k: v for k, v in outcome.summary.items() if k != "out_dir"})
         for key, path in outcome.files.items():
@@ -392,16 +397,20 @@ def _report(outcome: Any, as_json: bool) -> int:
     return 0
 
 
-def _interrupted(out: Any) -> int:
+def _interrupted(out: Any, every: float | None = None) -> int:
+    """Exit status 130 after Ctrl-C, with what the folder holds now: the checkpoint to
+    resume from, or why there is none (and whether an earlier run's results are kept)."""
     from damjax import runner
 
     if (out / runner.CHECKPOINT).is_file():
         sys.stderr.write(f"damjax: interrupted; continue with: damjax resume {out}\n")
+        return 130
+    if every is not None:
+        why = "it stopped before its first chunk ended (a checkpoint holds whole chunks)"
     else:
-        sys.stderr.write(
-            "damjax: interrupted (no checkpoint written: --checkpoint-every SECONDS keeps "
-            "one to resume from)\n"
-        )
+        why = "--checkpoint-every SECONDS keeps one to resume from"
+    kept = f"; {out} keeps the earlier run's results" if (out / runner.RESULTS).is_file() else ""
+    sys.stderr.write(f"damjax: interrupted (no checkpoint written: {why}){kept}\n")
     return 130
 
 
@@ -461,7 +470,7 @@ def cmd_run(ns: argparse.Namespace) -> int:
                 scn, out, checkpoint_every=ns.checkpoint_every, progress=not ns.quiet
             )
         except KeyboardInterrupt:
-            return _interrupted(out)
+            return _interrupted(out, ns.checkpoint_every)
     phases = outcome.summary.get("phases_s")
     if isinstance(phases, dict):  # the scenario's loading and checks come first
         outcome.summary["phases_s"] = {"scenario_s": round(t1 - t0, 4), **phases}
@@ -565,13 +574,29 @@ def cmd_ensemble(ns: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="damjax", description=__doc__.splitlines()[0])
+    parser = _Parser(
+        prog="damjax",
+        description="damjax: snow slab avalanche release with a depth-averaged MPM. "
+        "`damjax CMD --help` for each command.",
+    )
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    p = sub.add_parser("pst", help="run a propagation saw test")
+    p = sub.add_parser(
+        "pst",
+        help="run a propagation saw test",
+        description="Run a propagation saw test from flags (the paper's elastic baseline "
+        "where a flag is not given) or from a snow profile (--profile FILE --weak-layer "
+        "N); print its summary, one key a line (--json: one JSON object), and with --plot "
+        "write its figure.",
+    )
     _add_pst_flags(p)
     p.set_defaults(func=cmd_pst)
 
-    p = sub.add_parser("scenarios", help="list the shipped scenario files")
+    p = sub.add_parser(
+        "scenarios",
+        help="list the shipped scenario files",
+        description="List the shipped scenario files, name and title (`damjax run "
+        "NAME` runs one; copy its file to change it, or change a key with --set).",
+    )
     p.set_defaults(func=cmd_scenarios)
 
     p = sub.add_parser(
@@ -586,7 +611,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         metavar="DIR",
         help="output folder (default ./damjax-out/<name>); a finished run's files there are "
-        "replaced (with a warning if it was another scenario's)",
+        "replaced once this run writes its own (with a warning if it was another "
+        "scenario's)",
     )
     _add_set_flag(p)
     p.add_argument(

@@ -566,9 +566,14 @@ class GradientCheck:
         length_slope: least-squares slope of L_smooth over the same runs (nan where not
             given) [m per field unit]: equal to ``event_slope`` when the continuous
             length has the event-based trend.
-        relative_error: |ad_mean - event_slope| / |event_slope| [-].
+        relative_error: |ad_mean - event_slope| / |event_slope| [-]; nan where the
+            event-based arrest is the same in every run (no trend to compare with).
         tolerance: the relative error accepted [-].
-        ok: the verdict, relative_error <= tolerance.
+        ok: the verdict, relative_error <= tolerance; where the arrest is the same in
+            every run, whether the change the AD mean predicts over the window stays
+            below ``resolution``.
+        resolution: the event-based arrest's step [m] (one particle spacing; nan where
+            not given).
     """
 
     field: str
@@ -584,6 +589,7 @@ class GradientCheck:
     relative_error: float
     tolerance: float
     ok: bool
+    resolution: float = math.nan
 
     def __str__(self) -> str:
         verdict = "agrees" if self.ok else "DISAGREES"
@@ -591,6 +597,17 @@ class GradientCheck:
         runs = f"{len(self.values)} runs" + (
             f", {n_ok} arrested" if n_ok < len(self.values) else ""
         )
+        if math.isnan(self.relative_error):  # the arrest did not move over the window
+            change = abs(self.ad_mean) * (self.values[-1] - self.values[0])
+            arrest = next(a for a in self.arrests if math.isfinite(a))
+            return (
+                f"d L / d {self.field} over [{self.values[0]:.6g}, {self.values[-1]:.6g}] "
+                f"({runs}): the event-based arrest is {arrest:.6g} m in every run, no "
+                f"trend to compare with; AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
+                f"{self.ad:.5g}) predicts a change of {change:.3g} m over the window: "
+                f"{verdict} (below one particle spacing, {self.resolution:.3g} m, "
+                "is agreement)"
+            )
         return (
             f"d L / d {self.field} over [{self.values[0]:.6g}, {self.values[-1]:.6g}] "
             f"({runs}): AD mean {self.ad_mean:.5g} (at {self.at:.6g}: "
@@ -607,10 +624,14 @@ def compare_gradient(
     arrests: Any,
     tolerance: float = 0.1,
     lengths: Any = None,
+    resolution: float = math.nan,
 ) -> GradientCheck:
     """Verdict on AD derivatives [m per field unit] at a window of parameter ``values``
     (equally spaced, odd count: the centre is the middle one) against the least-squares
-    slope of the event-based arrests [m] there (at least 3 runs that arrested)."""
+    slope of the event-based arrests [m] there (at least 3 runs that arrested). Where
+    the arrest is the same in every run there is no slope to compare with: the verdict
+    is whether the change the AD mean predicts over the window stays below
+    ``resolution`` [m] (one particle spacing; nan: it never does)."""
     values = np.asarray(values, float)
     ad_values = np.asarray(ad_values, float)
     arrests = np.asarray(arrests, float)
@@ -630,7 +651,12 @@ def compare_gradient(
     # the same runs on both sides: where some runs did not arrest (the crack stopped at
     # the saw, or ran through), the event-based slope covers only the others
     ad_mean = float(np.mean(ad_values[ok]))
-    err = abs(ad_mean - slope) / max(abs(slope), 1e-300)
+    if np.ptp(arrests[ok]) == 0.0:  # the staircase did not step: no trend (slope ~1e-16)
+        slope, err = 0.0, math.nan
+        verdict = abs(ad_mean) * (values[-1] - values[0]) < resolution
+    else:
+        err = abs(ad_mean - slope) / max(abs(slope), 1e-300)
+        verdict = err <= tolerance
     mid = values.size // 2
     return GradientCheck(
         field=field,
@@ -645,5 +671,6 @@ def compare_gradient(
         length_slope=length_slope,
         relative_error=float(err),
         tolerance=float(tolerance),
-        ok=bool(err <= tolerance),
+        ok=bool(verdict),
+        resolution=float(resolution),
     )

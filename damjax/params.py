@@ -498,11 +498,14 @@ _DTYPE = Spec(
 # a chunk is one compiled scan: 10^7 steps is hours of run between snapshots
 _CHUNK = Spec(
     "",
-    "time steps per jitted chunk (progress and snapshot granularity)",
+    "time steps per jitted chunk (progress, snapshots, checkpoints); the run's step count "
+    "is rounded up to whole chunks, so it also sets dt",
     kind="int",
     valid=Range(1, 1e7, True, True),
     notes="At most the run's step count; the step count is rounded up to a multiple of "
-    "it, dt shrinks accordingly.",
+    "it, dt shrinks accordingly: up to chunk_steps - 1 more steps than the stable dt "
+    "needs (1050 needed, chunks of 1000: 2000 steps), and results that differ slightly "
+    "with it. Keep it when comparing runs.",
 )
 _P0_RULE = Spec(
     "",

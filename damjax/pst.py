@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import diagnostics, io, theory
-from damjax._tracing import concrete_tree, concrete_value, is_traced
+from damjax._tracing import concrete_tree, concrete_value, eager_if_concrete, is_traced
 from damjax.core import model as core_model
 from damjax.core.loop import integrate, integrate_pure
 from damjax.core.model import (  # noqa: F401  (Layout, SAW_LEAD, time_step: public here too)
@@ -55,6 +55,7 @@ from damjax.validation import (
     require_x64,
     resolution_note,
     setup_problems,
+    shape_problems,
     single_run_problems,
     size_problem,
     warn_notes,
@@ -286,10 +287,11 @@ def simulate_pst(
     params = PSTParams() if params is None else params
     resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
     concrete_only("simulate_pst", is_traced(params), progress, resume)
-    prep = _prepared_and_warned(params, setup, layout, stacklevel=3)
-    if is_traced(params):
-        return _simulate_traced(prep)
-    return run(prep, progress=progress, **resume)
+    with eager_if_concrete(params):
+        prep = _prepared_and_warned(params, setup, layout, stacklevel=3)
+        if is_traced(params):
+            return _simulate_traced(prep)
+        return run(prep, progress=progress, **resume)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -360,8 +362,8 @@ def prepare(
         require_x64(setup.dtype)
     values = concrete_tree(params) if traced else params
     notes: list[Problem] = []
-    if values is None:  # inside jax.jit: the setup alone is known
-        raise_if(setup_problems(setup))
+    if values is None:  # inside jax.jit: the setup and the parameters' shapes are known
+        raise_if(shape_problems(params, batch) + setup_problems(setup))
     else:
         problems = [] if batch or traced else single_run_problems(values)
         if not problems:

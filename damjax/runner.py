@@ -27,6 +27,7 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import tempfile
 import time as _time
 import warnings
@@ -315,19 +316,54 @@ def _run_locked(
             f"{out}: holds {which} {CHECKPOINT}; `damjax resume {out}` continues that run "
             f"(give another --out, or delete {out / CHECKPOINT} to start this one afresh there)"
         )
+    _settle_replaced(out)
     _note_replaced(out, scn)
     io.remove_stale_temporaries(out)
-    for name in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS):  # never mix the files of two runs
-        (out / name).unlink(missing_ok=True)
-    t0 = _time.perf_counter()
-    n_chunks = scenario.prepared(scn).layout.n_chunks  # checked once, when it was read
-    rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
-    if scn.type == "slope":
-        return _run_slope(scn, out, rec, progress, None)
-    t1 = _time.perf_counter()
-    result = _simulate(scn, rec, progress)
-    phases = {"layout_s": t1 - t0, "simulate_s": _time.perf_counter() - t1}
-    return _finish(scn, out, result, rec, None, phases)
+    # never mix the files of two runs: the earlier run's are set aside, deleted once this
+    # run has written its own (a checkpoint or its results), and put back if it stops
+    # before that (Ctrl-C while compiling, an error), so a finished run is not lost
+    _set_aside(out)
+    try:
+        t0 = _time.perf_counter()
+        n_chunks = scenario.prepared(scn).layout.n_chunks  # checked once, when it was read
+        rec = _Recorder(out, scn, n_chunks, checkpoint_every, on_chunk)
+        if scn.type == "slope":
+            outcome = _run_slope(scn, out, rec, progress, None)
+        else:
+            t1 = _time.perf_counter()
+            result = _simulate(scn, rec, progress)
+            phases = {"layout_s": t1 - t0, "simulate_s": _time.perf_counter() - t1}
+            outcome = _finish(scn, out, result, rec, None, phases)
+    finally:
+        _settle_replaced(out)
+    return outcome
+
+
+REPLACED = ".damjax-replaced"  # the earlier run's files while a new run replaces them
+
+
+def _set_aside(out: Path) -> None:
+    """Move the earlier run's files of ``out`` into its `REPLACED` folder."""
+    names = [n for n in (CHECKPOINT, *OUTPUTS, *SLOPE_OUTPUTS) if (out / n).exists()]
+    if not names:
+        return
+    aside = out / REPLACED
+    aside.mkdir(exist_ok=True)
+    for name in names:
+        os.replace(out / name, aside / name)
+
+
+def _settle_replaced(out: Path) -> None:
+    """The files set aside (`_set_aside`): deleted where a run has written its own into
+    ``out`` (a checkpoint or its results), else moved back (the run stopped before that,
+    or was killed: the earlier run's files are what the folder holds)."""
+    aside = out / REPLACED
+    if not aside.is_dir():
+        return
+    if not any((out / n).exists() for n in (CHECKPOINT, RESULTS)):
+        for p in aside.iterdir():
+            os.replace(p, out / p.name)
+    shutil.rmtree(aside, ignore_errors=True)
 
 
 def _checkpointed_scenario(path: Path) -> str | None:
@@ -353,7 +389,8 @@ def _note_replaced(out: Path, scn: Scenario) -> None:
         name = str(attrs.get("title", "")).rsplit(" ", 1)[-1] or "?"
         warnings.warn(
             f"{out}: held a finished run of scenario '{name}' with other settings than "
-            "this one's; its files are replaced by this run's",
+            "this one's; its files are replaced by this run's once it writes its own (a "
+            "checkpoint or its results)",
             stacklevel=3,
         )
 
@@ -420,6 +457,7 @@ def resume(
             )
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
     with io.folder_lock(out, LOCK_FILE, "damjax run"):
+        _settle_replaced(out)  # a killed run's earlier files, superseded by its checkpoint
         ck = _read(io.read_npz, path, "checkpoint")
         if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
             raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
@@ -606,6 +644,8 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
                 f"{out_dir}: an ensemble folder (ensemble.nc, ensemble.png, "
                 "ensemble_summary.json); `damjax show` re-plots single runs"
             )
+        if not Path(out_dir).exists():
+            raise ValueError(f"{out_dir}: no such folder (a run's output folder, --out DIR)")
         raise ValueError(f"{out_dir}: no {RESULTS} (not a damjax output folder?)")
     ds = _read(io.open_dataset, path, "results")
     if "scenario" not in ds.attrs or "summary" not in ds.attrs:

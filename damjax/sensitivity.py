@@ -137,6 +137,7 @@ def gradient_check(
             arrests[j * n_runs : (j + 1) * n_runs],
             tolerance,
             lengths[j * n_runs : (j + 1) * n_runs],
+            resolution=setup.dx / int(setup.particles_per_cell),
         )
         for j, f in enumerate(fields)
     ]

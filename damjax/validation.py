@@ -160,11 +160,15 @@ def _leaf_values(value: Any) -> list[float] | None:
     if isinstance(value, (str, bytes, bool, np.bool_)):
         return None
     try:
-        if np.asarray(value).dtype.kind not in "iuf":
+        given = np.asarray(value)
+        if given.dtype.kind not in "iuf":
             return None
         arr = np.asarray(value, dtype=float).ravel()
     except (TypeError, ValueError):
         return None
+    if given.dtype.kind == "f" and given.dtype.itemsize < 8:
+        # the shortest decimal of the float32 value (0.7, not its float64 0.699999988...)
+        return [float(str(x)) for x in given.ravel()]
     return [float(x) for x in arr]
 
 
@@ -204,6 +208,8 @@ def check_value(spec: Spec, value: Any, setup: type = PSTSetup) -> Problem | Non
         return None
     if name in specs(PSTParams):  # a leaf: a number or a batch of them
         values = _leaf_values(value)
+        if values == []:  # numbers, but none: an empty batch
+            return Problem(name, np.shape(value), "a batch needs >= 1 member", form="shape")
         if not values:
             return Problem(name, value, must_text(f"{valid} (a number)"), valid)
         bad = [i for i, v in enumerate(values) if not spec.valid.holds(v)]
@@ -356,6 +362,22 @@ def single_run_problems(params: PSTParams) -> list[Problem]:
     return problems
 
 
+def shape_problems(params: PSTParams, batch: bool = False) -> list[Problem]:
+    """The problems of the parameters' shapes, all that `jax.jit` knows of traced values:
+    scalars and 1-D profiles of >= 2 values (with ``batch``, one more leading axis)."""
+    problems = [] if batch else single_run_problems(params)
+    named = {p.field for p in problems}
+    for name in PROFILE_FIELDS:
+        v = getattr(params, name)
+        shape = np.shape(v)
+        if v is not None and name not in named and (len(shape) < 1 or shape[-1] < 2):
+            unit = specs(PSTParams)[name].unit
+            problems.append(
+                Problem(name, shape, f"must be an array of >= 2 values [{unit}]", form="shape")
+            )
+    return problems
+
+
 def setup_problems(setup: PSTSetup) -> list[Problem]:
     """The problems of a PST's numerical settings (empty when all are valid)."""
     problems = _fields(setup)
@@ -388,6 +410,19 @@ def mask_specs() -> dict[str, Spec]:
     return {"cover": COVER_SPEC, "domain": DOMAIN_SPEC}
 
 
+def slope_setup_problems(setup: SlopeSetup) -> list[Problem]:
+    """The problems of a slope run's numerical settings: each field, then the grid
+    (at least `MIN_CELLS` cells along and across)."""
+    out = _fields(setup, SlopeSetup)
+    if out:
+        return out
+    return [
+        _cells_problem(name, setup)
+        for name in ("length", "width")
+        if getattr(setup, name) / setup.dx < MIN_CELLS
+    ]
+
+
 def slope_problems(
     params: PSTParams,
     setup: SlopeSetup,
@@ -406,14 +441,9 @@ def slope_problems(
     ``wl_friction`` [-], ``cover`` and ``domain``), the start and the maps
     (`slope_field_problems`). A given slope map replaces params.slope_deg."""
     out = param_problems(params, skip=["slope_deg"] if slope is not None else [])
-    setup_out = _fields(setup, SlopeSetup)
-    if setup_out:  # the checks below need a valid grid
+    setup_out = slope_setup_problems(setup)
+    if out or setup_out:  # the checks below need a valid grid
         return out + setup_out
-    for name in ("length", "width"):
-        if getattr(setup, name) / setup.dx < MIN_CELLS:
-            out.append(_cells_problem(name, setup))
-    if out:
-        return out
     if not defer_lambda and snow.get("thickness") is None:
         problem = lambda_problem(setup.dx, float(theory.elastic_length(params)), SlopeSetup)
         if problem is not None:
@@ -421,6 +451,32 @@ def slope_problems(
     if slope is None and tau is None and all(v is None for v in snow.values()):
         return []
     return slope_field_problems(setup, slope, tau, fall, params=params, **snow)
+
+
+def _map_shape_reason(shape: tuple[int, ...], setup: SlopeSetup) -> str | None:
+    """Why a slope map of ``shape`` does not fit the release area's cells (None: it
+    does): a scalar or (nx, ny)."""
+    cells = (int(round(setup.length / setup.dx)), int(round(setup.width / setup.dx)))
+    if len(shape) == 2 and tuple(shape) != cells:
+        return (
+            f"shape {tuple(shape)} must be (nx, ny) = {cells}, the cells of length "
+            f"{setup.length} m x width {setup.width} m at dx {setup.dx} m"
+        )
+    if len(shape) not in (0, 2):
+        return "must be a scalar or a 2D array (nx, ny)"
+    return None
+
+
+def map_shape_problems(setup: SlopeSetup, **maps: Any) -> list[Problem]:
+    """The problems of the slope maps' shapes (``slope_deg``, ``tau_peak``, ``fall_deg``,
+    ``thickness``, ``stability``, ``wl_friction``), all that `jax.jit` knows of traced
+    maps: each a scalar or (nx, ny). The setup must be valid."""
+    out = []
+    for name, arr in maps.items():
+        reason = None if arr is None else _map_shape_reason(np.shape(arr), setup)
+        if reason is not None:
+            out.append(Problem(name, None, reason, form="map", setup=SlopeSetup))
+    return out
 
 
 def slope_field_problems(
@@ -475,13 +531,9 @@ def slope_field_problems(
             reason = "must be a number or a 2D array (nx, ny) of numbers"
             out.append(Problem(name, None, reason, form="map", setup=SlopeSetup))
             continue
-        if a.ndim == 2 and a.shape != cells:
-            reason = (
-                f"shape {a.shape} must be (nx, ny) = {cells}, the cells of length "
-                f"{setup.length} m x width {setup.width} m at dx {setup.dx} m"
-            )
-        elif a.ndim not in (0, 2):
-            reason = "must be a scalar or a 2D array (nx, ny)"
+        shape_reason = _map_shape_reason(a.shape, setup)
+        if shape_reason is not None:
+            reason = shape_reason
         elif not snow_map and not np.all(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak"))):
             reason = "must be a finite scalar or a 2D array (nx, ny)"
             bad = ~(np.isfinite(a) | (np.isinf(a) & (name == "tau_peak")))
@@ -501,6 +553,9 @@ def slope_field_problems(
                 else "every cell"
             )
             reason = must_text(f"{spec.valid_text} ({where})")
+            if a.ndim == 2:  # where: the first cell out of range
+                i, j = (int(k[0]) for k in np.nonzero(~spec.valid.holds(a)))
+                reason += f"; the first out of range, {a[i, j]:g}, at cell ({i}, {j})"
         else:
             continue
         finite = np.isfinite(a) | np.isinf(a)  # (no all-NaN warning from nanmin)
@@ -743,6 +798,8 @@ def _unused_slab_settings(
             for k in ("mcc_m", "mcc_beta", "mcc_xi", "slab_fracture_energy", *field_keys)
             if changed(k)
         ]
+        if setup.seed != default_setup.seed:  # the crack band's strength field's
+            unused.append("seed")
         if not unused:
             return []
         return [
@@ -751,7 +808,7 @@ def _unused_slab_settings(
                 reason="${tensile_strength} = inf (an elastic slab): "
                 + _listed(unused)
                 + (" is" if len(unused) == 1 else " are")
-                + " ignored (they set the plastic slab's law)",
+                + " ignored (they set the plastic slab's law and fractures)",
                 form="line",
                 category="dubious",
             )

@@ -218,3 +218,62 @@ def test_a_runtime_fault_stops_a_traced_smooth_summary():
     assert float(f(jnp.float32(2.5), jnp.int32(0))) == 2.5
     with pytest.raises(Exception, match="a particle reached the edge of the grid"):
         jax.block_until_ready(f(jnp.float32(2.5), jnp.int32(FAULT_EDGE)))
+
+
+def test_concrete_runs_inside_a_jitted_function_keep_their_concrete_path():
+    """Parameters captured by a jitted function (or static under equinox.filter_jit) are
+    concrete: the run does not depend on what is traced, runs once while tracing, and
+    gives the concrete run's value, where it stopped inside the AOT-compiled chunk
+    ("Cannot apply JAX transformations to a function lowered and compiled ...") or on a
+    tracer converted to numpy."""
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2, chunk_steps=100)
+    concrete = damjax.simulate_pst(PARAMS, setup)
+    f = jax.jit(lambda x: x * damjax.simulate_pst(PARAMS, setup).arrest_position_smooth)
+    assert float(f(2.0)) == 2.0 * concrete.arrest_position_smooth
+    g = eqx.filter_jit(lambda p: damjax.simulate_pst(p, setup).arrest_position_smooth)
+    assert float(g(PARAMS)) == concrete.arrest_position_smooth
+
+    params, sset = _slope_case(jnp.float32)
+    area = damjax.simulate_slope(params, sset).summary["release_area_smooth_m2"]
+    h = jax.jit(lambda x: x * damjax.simulate_slope(params, sset).summary["release_area_smooth_m2"])
+    assert float(h(2.0)) == 2.0 * area
+
+
+def test_shapes_under_jit_get_the_concrete_line():
+    """Inside jax.jit only the shapes of traced inputs are known: a profile of one value or
+    of two dimensions, a batched scalar and a slope map of the wrong shape stop the trace
+    with the line a concrete value gets (they ran on silently: the (1,) profile gave an
+    arrest of 20 m, a (5, 5) map the area of a uniform one, or failed inside numpy)."""
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2, chunk_steps=100)
+    layout = damjax.make_layout(PARAMS, setup)
+
+    def arrest(field, value):
+        p = eqx.tree_at(lambda q: getattr(q, field), PARAMS, value, is_leaf=lambda x: x is None)
+        return damjax.simulate_pst(p, setup, layout=layout).arrest_position_smooth
+
+    cases = [
+        ("strength_profile", np.full(1, 1000.0), r"has shape \(1,\): must be an array of >= 2"),
+        ("strength_profile", np.full((3, 7), 1000.0), r"has shape \(3, 7\): must be a 1-D"),
+        ("strength_gradient", np.full(3, 800.0), r"has shape \(3,\): must be a number"),
+    ]
+    for field, value, line in cases:
+        with pytest.raises(damjax.validation.InputError, match=line):
+            arrest(field, value)  # the concrete value's line
+        with pytest.raises(damjax.validation.InputError, match=line):
+            jax.jit(lambda v, field=field: arrest(field, v))(value)
+
+    params, sset = _slope_case(jnp.float32)
+    n = make_slope_layout(params, sset, 35.0).n_cells
+
+    def area(t):
+        return damjax.simulate_slope(params, sset, tau_peak=t).summary["release_area_smooth_m2"]
+
+    for shape, line in [
+        ((5, 5), rf"shape \(5, 5\) must be \(nx, ny\) = \({n[0]}, {n[1]}\)"),
+        ((n[0],), r"must be a scalar or a 2D array"),
+    ]:
+        tau = np.full(shape, 1250.0, np.float32)
+        with pytest.raises(damjax.validation.InputError, match=line):
+            area(tau)
+        with pytest.raises(damjax.validation.InputError, match=line):
+            jax.jit(area)(tau)

@@ -112,6 +112,7 @@ def test_run_writes_outputs_and_show_replots(tmp_path, scn_file, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["scenario"] == "restart" and summary["fault"] is None
     assert summary["out_dir"] == str(out) and "wall_time_s" in summary
+    assert summary["files"]["results"] == str(out / runner.RESULTS)  # as the text lists them
     for name in (runner.RESULTS, runner.SUMMARY, runner.PLOT, runner.FINAL_STATE):
         assert (out / name).is_file(), name
     assert not (out / runner.CHECKPOINT).exists()
@@ -141,6 +142,10 @@ def test_run_writes_outputs_and_show_replots(tmp_path, scn_file, capsys):
 
     assert main(["show", str(tmp_path / "nothing")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nothing: no such folder" in err[0]
+    (tmp_path / "empty").mkdir()
+    assert main(["show", str(tmp_path / "empty")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no results.nc" in err[0]
     assert main(["resume", str(out)]) == 2  # finished: nothing to resume
     assert "no checkpoint.npz" in capsys.readouterr().err
@@ -149,6 +154,12 @@ def test_run_writes_outputs_and_show_replots(tmp_path, scn_file, capsys):
 def test_run_by_shipped_name_and_bad_arguments(tmp_path, capsys):
     assert main(["run", "quik", "--out", str(tmp_path)]) == 2
     assert "did you mean 'quick'" in capsys.readouterr().err
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "mine.toml").write_text('type = "pst"\n')
+    assert main(["run", str(tmp_path / "scenarios")]) == 2  # a folder: which file
+    assert "a folder; give a scenario file (a .toml) (it holds mine.toml)" in (
+        capsys.readouterr().err
+    )
     assert main(["run", "quick", "--checkpoint-every", "-1"]) == 2
     err = capsys.readouterr().err
     assert "--checkpoint-every" in err and len(err.strip().splitlines()) == 1
@@ -213,6 +224,19 @@ def test_interrupted_in_process_and_resumed(tmp_path, scn_file):
     (other / runner.RESULTS).write_bytes((ref.out_dir / runner.RESULTS).read_bytes())
     with pytest.warns(UserWarning, match="held a finished run of scenario 'restart' with other"):
         runner.run(edited, other)
+    # ... but kept when the new run stops before writing its own (Ctrl-C while it
+    # compiled, in its first chunks without checkpoints): the folder lost a finished run
+    names = [n for n in runner.OUTPUTS if (ref.out_dir / n).exists()]
+    finished = {n: (ref.out_dir / n).read_bytes() for n in names}
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    for n, data in finished.items():
+        (kept / n).write_bytes(data)
+    with pytest.warns(UserWarning, match="once it writes its own"):
+        with pytest.raises(KeyboardInterrupt):
+            runner.run(edited, kept, on_chunk=stop_after(2))
+    assert {n: (kept / n).read_bytes() for n in names} == finished and len(names) >= 3
+    assert not (kept / runner.REPLACED).exists()
 
     # resume, interrupt again (every chunk checkpointed now), resume to the end
     with pytest.raises(KeyboardInterrupt):

@@ -83,6 +83,19 @@ def test_verdict_compares_the_same_runs_when_some_did_not_arrest():
     assert "5 runs, 3 arrested" in str(c)
 
 
+def test_an_arrest_that_does_not_move_over_the_window_is_judged_by_its_resolution():
+    """The same event-based arrest in every run: no trend to compare with (its fitted
+    slope is round-off, ~1e-16, and a relative error of 1e14 % meant nothing); the AD
+    mean agrees when the change it predicts over the window is below one particle
+    spacing."""
+    values, arrests = [0.9, 1.0, 1.1], [6.875, 6.875, 6.875]
+    small = compare_gradient("saw_speed", values, [0.1, 0.2, 0.3], arrests, resolution=0.1)
+    assert small.event_slope == 0.0 and np.isnan(small.relative_error) and small.ok
+    assert "6.875 m in every run, no trend" in str(small) and "0.04 m" in str(small)
+    large = compare_gradient("saw_speed", values, [1.0, 1.0, 1.0], arrests, resolution=0.1)
+    assert not large.ok and "DISAGREES" in str(large)
+
+
 def test_slope_failed_area_gradient_follows_the_event_based_release():
     """The 2D step: a 12 m x 1 m plane slope (35 deg) whose strength rises up-slope,
     tau_p = s (1000 + 1100 Pa/m x (x - 3 m)); d(failed area)/ds by AD, averaged over

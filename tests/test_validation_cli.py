@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -401,8 +402,13 @@ def test_traced_parameters_stiffer_than_the_layout_stop_with_a_message():
     f = jax.jit(jax.value_and_grad(lambda p: arrest_position_smooth(p, setup, lay)))
     value, _ = f(params)
     assert math.isfinite(float(value))
-    with pytest.raises(Exception, match="breaks the Courant limit"):
-        jax.block_until_ready(f(dataclasses.replace(params, youngs_modulus=4e7)))
+    # twice as stiff: within the bare Courant limit dt c_p <= dx, but beyond the layout's
+    # cfl bound, which the concrete check (`check_layout`) applies too
+    stiff = dataclasses.replace(params, youngs_modulus=2 * params.youngs_modulus)
+    with pytest.raises(ValueError, match="exceeds the stable"):
+        arrest_position_smooth(stiff, setup, lay)
+    with pytest.raises(Exception, match="exceeds the stable"):
+        jax.block_until_ready(f(stiff))
 
 
 def test_settings_a_slab_law_does_not_use_are_reported_as_ignored(capsys):
@@ -457,10 +463,18 @@ def test_set_overrides_a_scenario_key_and_is_checked_like_the_file(tmp_path, cap
         ("duration", "must be KEY=VALUE"),
         ("=1", "must be KEY=VALUE"),
         ("setup..dx=1", "must be KEY=VALUE"),
-        ("setup.dx.x=1", "setup.dx is a value, not a table"),
+        ("setup.dx.x=1", "setup.dx = 0.1 is a value, not a table"),
     ):
         with pytest.raises(ValueError, match=match):
             scenario.override({"setup": {"dx": 0.1}}, [bad])
+    # a relative file path from the command line is the working directory's (the shipped
+    # scenarios' own files are beside them, in the package): absolute paths stay
+    paths = scenario.override(
+        {}, ["strength.file=my.csv", "snow.mask=gis/forest.shp", "terrain.release=/r.shp"]
+    )
+    assert paths["strength"]["file"] == str(Path.cwd() / "my.csv")
+    assert paths["snow"]["mask"] == str(Path.cwd() / "gis" / "forest.shp")
+    assert paths["terrain"]["release"] == "/r.shp"
     out = tmp_path / "run"
     rc = main(["run", "quick", "--set", "setup.duration=0.05", "--out", str(out), "--quiet"])
     assert rc == 0

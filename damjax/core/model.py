@@ -188,16 +188,31 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
             "(tensile_strength = inf): make the layout from these parameters",
         )
     if is_traced(params):
+        # the concrete check's bound (`time_step`: cfl dx / (c_p + v_slide)), with room for
+        # float32's rounding of the same parameters the layout was made from
         lateral = "constrained" if setup.dim == 2 else setup.lateral
         c = theory.longitudinal_wave_speed(params, lateral)
+        dt_max = setup.cfl * setup.dx / (c + _traced_slide_accel(params) * setup.duration)
         dt = eqx.error_if(
             dt,
-            jnp.any(dt * c > setup.dx),
-            "youngs_modulus / density: the slab's wave speed breaks the Courant limit of "
-            "the layout's time step (a stiffer slab than the layout was made from); make "
-            "the layout from the stiffest parameters you evaluate",
+            jnp.any(dt > dt_max * (1.0 + 1e-5)),
+            "layout: its time step exceeds the stable cfl dx / (c_p + v_slide) of these "
+            "parameters, found at run time (a stiffer or more steeply sliding slab than the "
+            "layout was made for: it would break the Courant limit); make it with "
+            "damjax.make_layout(params, setup) from the largest youngs_modulus and "
+            "slope_deg you evaluate",
         )
     return dt
+
+
+def _traced_slide_accel(params: PSTParams) -> Any:
+    """`_slide_accel` of traced parameters (a JAX array, batched as they are)."""
+    if params.slope_profile is None:
+        psi = jnp.radians(jnp.asarray(params.slope_deg))
+    else:
+        psi = jnp.radians(jnp.max(jnp.asarray(params.slope_profile), axis=-1))
+    phi = jnp.radians(jnp.asarray(params.friction_deg))
+    return jnp.maximum(G_ACC * (jnp.sin(psi) - jnp.cos(psi) * jnp.tan(phi)), 0.0)
 
 
 def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:

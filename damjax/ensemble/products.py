@@ -96,8 +96,10 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
 
     r0 = results[0]
 
-    def var(dims: tuple[str, ...], data: Any, units: str, long_name: str) -> Any:
-        return xr.Variable(dims, np.asarray(data), {"units": units, "long_name": long_name})
+    def var(dims: tuple[str, ...], data: Any, units: str | None, long_name: str) -> Any:
+        # text (a front's state) has no units (CF: units are for numbers)
+        attrs = {"long_name": long_name} if units is None else {"units": units}
+        return xr.Variable(dims, np.asarray(data), {**attrs, "long_name": long_name})
 
     data: dict[str, Any] = {
         "seed": var(("member",), [member_seed(ens, i) for i in idx], "1", "GRF seed"),
@@ -128,7 +130,7 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
         data[key] = var(
             ("member",),
             np.array([str(r.summary.get(key, "")) for r in results], dtype=str),
-            "1",
+            None,
             f"state of the {key.split('_')[0]} front: arrested, reached_edge, moving or sawn_only",
         )
     for part, pre in ((0, "param_"), (1, "strength_")):

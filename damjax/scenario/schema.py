@@ -75,6 +75,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import importlib.resources
+import json
 import math
 import re
 import warnings
@@ -250,6 +251,13 @@ def resolve(name_or_path: str | Path) -> Path:
     lib = shipped()
     if str(name_or_path) in lib:
         return lib[str(name_or_path)]
+    if p.is_dir():
+        tomls = sorted(q.name for q in p.glob("*.toml"))[:5]
+        holds = f" (it holds {', '.join(tomls)})" if tomls else ""
+        raise ValueError(
+            f"{name_or_path}: a folder; give a scenario file (a .toml){holds} or a shipped "
+            "scenario's name (`damjax scenarios`)"
+        )
     hint = difflib.get_close_matches(str(name_or_path), list(lib), n=1)
     more = f" (did you mean '{hint[0]}'?)" if hint else f" (shipped: {', '.join(lib)})"
     raise ValueError(f"{name_or_path}: no such scenario file or shipped scenario{more}")
@@ -283,8 +291,11 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
     is read as a TOML value (``0.5``, ``true``, ``"grf"``, ``[1.0, 2.0]``), else as a string
     (``strength.kind=stability``); dotted keys reach nested tables
     (``ensemble.params.softening.dist=uniform``); nothing after ``=`` removes the key
-    (``strength.tau_peak=``: a key of another kind). The scenario's checks then name a key
-    or value that is not valid. ValueError on a malformed assignment."""
+    (``strength.tau_peak=``: a key of another kind). A relative path given to a file key
+    (`SET_PATH_KEYS`: ``terrain.file``, ``snow.mask``, ...) is taken from the working
+    directory, where the command runs, not from the scenario file's folder. The
+    scenario's checks then name a key or value that is not valid. ValueError on a
+    malformed assignment."""
     for item in sets:
         key, eq, text = str(item).partition("=")
         key, text = key.strip(), text.strip()
@@ -304,13 +315,22 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
             sub = table.setdefault(k, {})
             if not isinstance(sub, dict):
                 where = ".".join(parts[: depth + 1])
-                raise ValueError(f"--set {item}: {where} is a value, not a table")
+                raise ValueError(
+                    f"--set {item}: {where} = {_fmt_value(sub)} is a value, not a table"
+                )
             table = sub
         if remove:
             table.pop(parts[-1], None)
         else:
+            if parts[-1] in SET_PATH_KEYS and isinstance(value, str) and value:
+                value = str(Path(value).expanduser().absolute())
             table[parts[-1]] = value
     return data
+
+
+# keys whose values are file paths ([terrain] file and release, [strength] file, [snow]
+# file and mask, [profile] file): relative to the scenario file when written in it
+SET_PATH_KEYS = ("file", "release", "mask")
 
 
 def loads(text: str, *, warn: bool = True, base_dir: str | Path | None = None) -> Scenario:
@@ -425,6 +445,11 @@ _KIND_TEXT = {
 }
 
 
+def _fmt_value(v: Any) -> str:
+    """A TOML value as a scenario file writes it (strings quoted)."""
+    return json.dumps(v) if isinstance(v, (str, bool)) else str(v)
+
+
 def key_kind(cls: type, name: str) -> str:
     """Expected TOML kind of a key of [params], [setup] (``cls``: its class, whose
     declarations say) or [output]: bool, int, float, str, str? (a string, optional) or
@@ -450,6 +475,8 @@ def valid_words(cls: type, name: str) -> str:
     ``must be an integer in [1, 64]``, ``must be one of {"free", "constrained"}``."""
     kind = key_kind(cls, name)
     spec = None if cls is Output else specs(cls)[name]
+    if spec is not None and spec.kind == "point":
+        return f"must be [x, y], two finite numbers [{spec.unit}]"
     if spec is None or spec.valid is None or kind == "bool":
         return f"must be {_KIND_TEXT[kind]}"
     if spec.kind == "choice":

@@ -285,7 +285,8 @@ def _check_table(
         if key not in keys:
             others = [k for k, s in schema.items() if key in s]
             if others:
-                more = f' (only for {section}.kind = "{others[0]}")'
+                kinds_ = " or ".join(f'"{k}"' for k in others)
+                more = f' (only for {section}.kind = {kinds_}, not "{kind}")'
             else:
                 hit = difflib.get_close_matches(key, ["kind", *keys], n=1)
                 more = (
@@ -515,7 +516,10 @@ def check(
     if "start" in svals:
         st = np.asarray(svals["start"], dtype=float)
         if st.shape != (2,):
-            problems.append(f"setup.start = {_fmt(data['setup']['start'])}: must be [x, y] in m")
+            problems.append(
+                f"setup.start = {_fmt(data['setup']['start'])}: must be [x, y], two finite "
+                "numbers [m]"
+            )
             del svals["start"]
         else:
             svals["start"] = (float(st[0]), float(st[1]))

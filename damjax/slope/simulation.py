@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax import theory
-from damjax._tracing import concrete_members, concrete_value, is_traced
+from damjax._tracing import concrete_members, concrete_value, eager_if_concrete, is_traced
 from damjax._version import __version__
 from damjax.constants import G_ACC
 from damjax.core.loop import integrate, integrate_pure
@@ -57,12 +57,15 @@ from damjax.validation import (
     ensure_x64,
     expect_types,
     lambda_problem,
+    map_shape_problems,
     partial_cells,
     raise_if,
     require_x64,
+    shape_problems,
     size_problem,
     slope_field_problems,
     slope_problems,
+    slope_setup_problems,
 )
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
@@ -758,20 +761,21 @@ def simulate_slope(
     traced = is_traced((params, slope_deg, tau_peak, fall_deg, snow))
     resume = dict(state=state, start_chunk=start_chunk, history=history, callback=callback)
     concrete_only("simulate_slope", traced, progress, resume)
-    prep = prepare(
-        params,
-        setup,
-        slope_deg=slope_deg,
-        tau_peak=tau_peak,
-        fall_deg=fall_deg,
-        layout=layout,
-        domain=domain,
-        **snow,
-    )
-    warn_notes(prep, stacklevel=3)
-    if traced:
-        return _simulate_slope_traced(prep)
-    return run(prep, progress=progress, **resume)
+    with eager_if_concrete((params, slope_deg, tau_peak, fall_deg, snow, domain)):
+        prep = prepare(
+            params,
+            setup,
+            slope_deg=slope_deg,
+            tau_peak=tau_peak,
+            fall_deg=fall_deg,
+            layout=layout,
+            domain=domain,
+            **snow,
+        )
+        warn_notes(prep, stacklevel=3)
+        if traced:
+            return _simulate_slope_traced(prep)
+        return run(prep, progress=progress, **resume)
 
 
 def warn_notes(prep: PreparedSlope, stacklevel: int = 2) -> None:
@@ -907,8 +911,18 @@ def prepare(
             )
         # the values JAX holds behind the tracers, one set per member of a jax.vmap batch
         members = concrete_members(inputs)
-        for m in members or ():
-            raise_if(slope_problems(m[0], setup, *m[1:4], **m[4], domain=domain))
+        for i, m in enumerate(members or ()):
+            problems = slope_problems(m[0], setup, *m[1:4], **m[4], domain=domain)
+            if len(members) > 1:  # a jax.vmap batch: which member
+                problems = [
+                    dataclasses.replace(p, reason=f"{p.reason} (batch member {i})")
+                    for p in problems
+                ]
+            raise_if(problems)
+        if members is None:  # inside jax.jit: the setup and the shapes are known
+            raise_if(shape_problems(params) + slope_setup_problems(setup))
+            maps = dict(slope_deg=slope_deg, tau_peak=tau_peak, fall_deg=fall_deg)
+            raise_if(map_shape_problems(setup, **maps, **snow))
         if layout is None:
             if members is None:
                 layout = _layout_from_known(params, setup, slope_deg, cover)
