@@ -99,8 +99,15 @@ def youngs_modulus(density: Any, relation: str = "scapozza") -> Any:
     r = np.asarray(density) if not hasattr(density, "aval") else density
     if not hasattr(r, "aval"):
         lo, hi = MODULUS_DENSITY_RANGE
-        if np.any(~np.isfinite(r)) or np.any(r <= 0):
-            raise ValueError(f"density = {density}: must be finite and > 0 kg/m^3")
+        bad = ~(np.isfinite(r) & (r > 0))
+        if np.any(bad):
+            if np.ndim(r) == 0:
+                raise ValueError(f"density = {density}: must be finite and > 0 kg/m^3")
+            first = np.asarray(r)[bad].ravel()[0]
+            raise ValueError(
+                f"density: {int(bad.sum())} of {bad.size} values are not finite and > 0 "
+                f"(the first {first:g}): must be finite and > 0 kg/m^3"
+            )
         if np.any(r < lo) or np.any(r > hi):
             warnings.warn(
                 f"density {np.min(r):.4g}-{np.max(r):.4g} kg/m^3 lies outside "
@@ -265,8 +272,9 @@ class SnowProfile:
         if weak_layer is None:
             if self.concern is None:
                 raise ValueError(
-                    f"{self.source}: no layer of concern in the file: give weak_layer, an "
-                    f"integer in [1, {n - 1}] (layer index, 0 = top; see SnowProfile.table())"
+                    f"{self.source}: no layer of concern in the file: give weak_layer "
+                    f"(--weak-layer, [profile] weak_layer), an integer in [1, {n - 1}] (layer "
+                    "index, 0 = top; the layers: SnowProfile.table())"
                 )
             weak_layer = self.concern
         if (
@@ -329,18 +337,32 @@ class SnowProfile:
         w = np.diff(edges) / depth
         z = 0.5 * (edges[1:] + edges[:-1])
         rho = self.density_at(z)
+        nonpositive = sorted(
+            {
+                k
+                for k, ly in enumerate(self.layers[:i])
+                if np.isfinite(ly.density) and ly.density <= 0
+            }
+        )
+        if nonpositive:
+            k = nonpositive[0]
+            raise ValueError(
+                f"{self.source}: layer {k} ({100 * self.layers[k].top:.1f}-"
+                f"{100 * self.layers[k].bottom:.1f} cm) has density {self.layers[k].density:g} "
+                "kg/m^3: must be > 0"
+            )
         if not np.all(np.isfinite(rho)):
             bad = sorted({k for k, ly in enumerate(self.layers[:i]) if not ly.density > 0})
             raise ValueError(
                 f"{self.source}: no density for layers {bad} above weak layer {i} "
-                f"(depth {100 * depth:.1f} cm); pass density=... [kg/m^3] to pst_params"
+                f"(depth {100 * depth:.1f} cm); pass density=... [kg/m^3] to pst_params (--density)"
             )
         if self.density_samples.size and not np.any(
             0.5 * (self.density_samples[:, 0] + self.density_samples[:, 1]) < depth
         ):
             raise ValueError(
                 f"{self.source}: no density sample above weak layer {i} (depth "
-                f"{100 * depth:.1f} cm); pass density=... [kg/m^3] to pst_params"
+                f"{100 * depth:.1f} cm); pass density=... [kg/m^3] to pst_params (--density)"
             )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -522,21 +544,31 @@ def _pro_blocks(path: str) -> tuple[dict[str, str], list[tuple[_dt.datetime, dic
     return station, blocks
 
 
-def _pro_values(path: str, code: str, rest: str | None, n: int) -> np.ndarray:
-    """The n per-element values of one data line (missing -999 -> NaN, short lines padded
-    with NaN at the bottom, where soil elements lack snow fields)."""
+def _pro_values(path: str, code: str, rest: str | None, n: int, n_soil: int = 0) -> np.ndarray:
+    """The n per-element values of one data line (missing -999 -> NaN), which holds as
+    many values as its count says; a line of a snow field may lack the ``n_soil`` soil
+    elements at the bottom (padded with NaN there), no more."""
     if rest is None:
         return np.full(n, np.nan)
     parts = [p for p in rest.split(",")]
+    count = _count(path, rest, code)
     try:
         vals = np.array([float(p) for p in parts[1:] if p.strip()], dtype=float)
     except ValueError:
         raise ValueError(f"{path}: code {code}: non-numeric value") from None
-    if vals.size == n + 1:  # 0513 carries a surface-hoar marker at the end
+    if vals.size != count:
+        raise ValueError(
+            f"{path}: code {code}: its count says {count} values, the line holds {vals.size}"
+        )
+    if code == "0513" and vals.size == n + 1:  # a surface-hoar marker at the end
         vals = vals[:n]
+    if not n - n_soil <= vals.size <= n:
+        raise ValueError(
+            f"{path}: code {code}: {vals.size} values for {n} elements (0501), "
+            f"{n - n_soil} of them snow"
+        )
     if vals.size < n:
         vals = np.concatenate([np.full(n - vals.size, np.nan), vals])
-    vals = vals[:n]
     return np.where(vals <= -999.0, np.nan, vals)
 
 
@@ -560,7 +592,13 @@ def read_pro(path: str | os.PathLike, date: str | _dt.datetime | None = None) ->
     if date is None:
         when, block = blocks[-1]
     else:
-        t = _dt.datetime.fromisoformat(date) if isinstance(date, str) else date
+        try:
+            t = _dt.datetime.fromisoformat(date) if isinstance(date, str) else date
+        except ValueError:
+            raise ValueError(
+                f"{path}: date = {date!r} (--profile-date, [profile] date): must be ISO text "
+                '("2017-11-14T12:00" or "2017-11-14")'
+            ) from None
         before = [b for b in blocks if b[0] <= t]
         if not before:
             raise ValueError(
@@ -572,8 +610,19 @@ def read_pro(path: str | os.PathLike, date: str | _dt.datetime | None = None) ->
         raise ValueError(f"{path}: the profile of {when.isoformat()} has no heights (0501)")
     heights = _pro_values(path, "0501", block["0501"], _count(path, block["0501"]))
     n = heights.size
-    fields = {c: _pro_values(path, c, block.get(c), n) for c in ("0502", "0513", "0534")}
-    fields.update({c: _pro_values(path, c, block.get(c), n) for c in ("0601", "0606")})
+    rising = np.diff(heights) > 0
+    if not np.all(rising):
+        k = int(np.flatnonzero(~rising)[0])
+        raise ValueError(
+            f"{path}: code 0501 of {when.isoformat()}: heights must rise from the ground "
+            f"up; element {k + 2} ({heights[k + 1]:g} cm) is not above element {k + 1} "
+            f"({heights[k]:g} cm)"
+        )
+    soil = int(np.sum(heights <= 0))
+    fields = {
+        c: _pro_values(path, c, block.get(c), n, soil)
+        for c in ("0502", "0513", "0534", "0601", "0606")
+    }
     snow = np.flatnonzero(heights > 0)
     if snow.size == 0:
         raise ValueError(f"{path}: no snow on {when.isoformat()} (all heights <= 0)")
@@ -618,12 +667,14 @@ def read_pro(path: str | os.PathLike, date: str | _dt.datetime | None = None) ->
     )
 
 
-def _count(path: str, rest: str) -> int:
+def _count(path: str, rest: str, code: str = "0501") -> int:
+    """The count that leads a data line (0501: the number of elements)."""
     head = rest.split(",", 1)[0].strip()
     try:
         return int(head)
     except ValueError:
-        raise ValueError(f"{path}: 0501 element count {head!r} is not an integer") from None
+        what = "element count" if code == "0501" else "count"
+        raise ValueError(f"{path}: {code} {what} {head!r} is not an integer") from None
 
 
 def read_profile(path: str | os.PathLike, **kwargs: Any) -> SnowProfile:
@@ -633,6 +684,13 @@ def read_profile(path: str | os.PathLike, **kwargs: Any) -> SnowProfile:
     if suffix == ".pro":
         return read_pro(path, **kwargs)
     if suffix in (".xml", ".caaml"):
+        if kwargs.get("date") is not None:  # the command line's --profile-date
+            raise ValueError(
+                f"{os.fspath(path)}: date = {str(kwargs['date'])!r} (--profile-date, [profile] "
+                "date) picks one of a SNOWPACK .pro file's profiles; a CAAML file holds one "
+                "profile: leave the date out"
+            )
+        kwargs.pop("date", None)
         if kwargs:
             raise TypeError(f"read_caaml takes no options (got {sorted(kwargs)})")
         return read_caaml(path)

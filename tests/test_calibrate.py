@@ -63,6 +63,11 @@ def test_inversion_recovers_a_known_strength_gradient():
         ({"fields": ["softening"], "params0": PSTParams(softening=0.0)}, "params0.softening"),
         ({"observations": []}, "observations: empty"),
         ({"observations": [({}, float("nan"))]}, r"observations\[0\]: L_observed = nan"),
+        ({"observations": [({}, None)]}, r"observations\[0\]: L_observed = None: must be"),
+        ({"observations": [({}, "abc")]}, r"observations\[0\]: L_observed = 'abc': must be"),
+        # an override of the fitted field was dropped silently ({**o, **fitted})
+        ({"observations": [({"tau_peak": -1.0}, observed)]}, r"overrides \['tau_peak'\], fitted"),
+        ({"observations": [({"softening": "x"}, observed)]}, "override softening = 'x': must be"),
     ]:
         args = {"observations": [({}, observed)], "params0": start, "fields": ["tau_peak"]}
         args.update(kw)

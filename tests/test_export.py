@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -192,6 +193,12 @@ def test_local_frame_without_a_dem(run_dir, tmp_path):
         assert np.sum(img == 1) == int(np.isfinite(ds["arrival_time"].values).sum())
     zones = gis.release_zones(ds, fr)
     assert float(zones.geometry.area.sum()) == pytest.approx(float(zones["surf_m2"].sum()))
+    # no advice to state a CRS (--crs), which a local frame refuses (above)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gis.write_release_zones(zones, tmp_path / "zones", formats=("gpkg",), local=True)
+    with pytest.warns(UserWarning, match="the run's DEM has none"):
+        gis.write_release_zones(zones, tmp_path / "zones2", formats=("gpkg",))
     with pytest.raises(ValueError, match="not a DEM"):
         ava_export.export_avaframe(run_dir, tmp_path / "ava", scenario={"terrain": {}})
 

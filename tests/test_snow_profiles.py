@@ -146,6 +146,69 @@ def test_pro_date_selection_and_errors(tmp_path):
         prof.slab()
 
 
+GOOD_PRO = """[STATION_PARAMETERS]
+StationName= t
+SlopeAngle= 38
+
+[HEADER]
+0500,Date
+
+[DATA]
+0500,10.02.2024 12:00:00
+0501,5,20,40,50,60,80
+0502,5,300,280,150,220,120
+0513,6,440,440,550,330,220,0
+0534,5,-3,-3,-1,-2,-1
+0601,5,2.0,1.8,0.9,1.2,0.5
+"""
+
+
+@pytest.mark.parametrize(
+    "line, bad, match",
+    [
+        (
+            "0501,5,20,40,50,60,80",
+            "0501,5,20,40,60,80",
+            "code 0501: its count says 5 values, the line holds 4",
+        ),
+        (
+            "0502,5,300,280,150,220,120",
+            "0502,5,300,280,150,220",
+            "code 0502: its count says 5 values, the line holds 4",
+        ),
+        (
+            "0502,5,300,280,150,220,120",
+            "0502,4,300,280,150,220",
+            r"code 0502: 4 values for 5 elements \(0501\), 5 of them snow",
+        ),
+        (
+            "0501,5,20,40,50,60,80",
+            "0501,5,20,50,40,60,80",
+            "heights must rise from the ground up; element 3 \\(40 cm\\) is not above element 2",
+        ),
+    ],
+)
+def test_pro_lines_that_do_not_fit_are_errors(tmp_path, line, bad, match):
+    """A data line whose values do not match its count or the elements shifted every
+    value to another layer (a 4-value density line: the top layer read 220 kg/m^3, not
+    120), and unsorted heights gave a layer of negative thickness; both ran on."""
+    path = tmp_path / "p.pro"
+    path.write_text(GOOD_PRO)
+    assert len(sp.read_profile(path).layers) == 5
+    path.write_text(GOOD_PRO.replace(line, bad))
+    with pytest.raises(ValueError, match=match):
+        sp.read_profile(path)
+
+
+def test_a_profile_s_bad_density_and_a_caaml_date_are_one_line(tmp_path):
+    path = tmp_path / "p.pro"
+    path.write_text(GOOD_PRO.replace("300,280,150,220,120", "300,280,150,-220,120"))
+    with pytest.raises(ValueError, match=r"layer 1 \(20.0-30.0 cm\) has density -220 kg/m\^3"):
+        sp.read_profile(path).slab(2)
+    with pytest.raises(ValueError, match="a CAAML file holds one profile: leave the date out"):
+        sp.read_profile(CAAML, date="2020-01-28")
+
+
 SNOWPAT_DUMP = """
 import json, sys
 import snowpat.snowpackreader as spr

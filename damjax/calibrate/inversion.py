@@ -93,6 +93,17 @@ def optimizer_problems(steps: Any, learning_rate: Any, tol: Any = None) -> list[
     return out
 
 
+def _number(v: Any) -> float | None:
+    """``v`` as a float where it is one number (not a bool, a string or an array), else
+    None."""
+    if isinstance(v, (bool, str, bytes)) or np.ndim(v) != 0:
+        return None
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return None
+
+
 def _observation_pairs(observations: Any) -> list[tuple[dict[str, float], float]]:
     """``observations`` as a list of (overrides, L_observed) pairs; ValueError naming the
     form when it is not one (a plain array of arrest positions has no overrides)."""
@@ -171,10 +182,21 @@ def invert(
         bad = sorted(k for k in over_i if k not in known)
         if bad:
             problems.append(f"observations[{i}]: overrides {bad} are not PSTParams fields")
+        fitted = sorted(k for k in over_i if k in fields)
+        if fitted:
+            problems.append(
+                f"observations[{i}]: overrides {fitted}, fitted fields: the fit sets them in "
+                "every run (leave them out of the overrides, or fit other fields)"
+            )
+        problems += [
+            f"observations[{i}]: override {k} = {v!r}: must be a number"
+            for k, v in over_i.items()
+            if k in known and k not in fields and _number(v) is None
+        ]
     if not observations:
         problems.append("observations: empty; give at least one (overrides, L_observed) pair")
     for i, (_, observed) in enumerate(observations):
-        if not (np.ndim(observed) == 0 and math.isfinite(float(observed))):
+        if _number(observed) is None or not math.isfinite(float(observed)):
             problems.append(
                 f"observations[{i}]: L_observed = {observed!r}: must be a finite arrest "
                 "position [m] (a run that did not arrest has none: NaN)"

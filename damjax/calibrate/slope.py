@@ -38,7 +38,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax.calibrate.inversion import _positive_scalar, _stopped_early, optimizer_problems
+from damjax.calibrate.inversion import (
+    _number,
+    _positive_scalar,
+    _stopped_early,
+    optimizer_problems,
+)
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
@@ -208,6 +213,9 @@ def observed_release(
     observation cell, plus Gaussian noise of `noise_std`, thresholded at 1/2 (a mapped
     release polygon with mapping errors near its edge) [0/1 float array]."""
     cx = np.repeat(result.x, result.y.size)
+    noise = _number(noise_std)
+    if noise is None or not (math.isfinite(noise) and noise >= 0.0):
+        raise ValueError(f"observed_release: noise_std = {noise_std!r}: must be a number >= 0")
     cy = np.tile(result.y, result.x.size)
     broken = np.isfinite(result.arrival_time).ravel().astype(float)
     flat, count = _bins(cx, cy, grid)
@@ -353,7 +361,11 @@ def calibrate_slope(
     unknown = sorted(k for k in (initial or {}) if k not in start)
     if unknown:
         raise ValueError(f"calibrate_slope: initial {unknown}: not one of {CALIBRATED}")
-    start.update({k: float(v) for k, v in (initial or {}).items()})
+    for k, v in (initial or {}).items():
+        value = _number(v)
+        if value is None:
+            raise ValueError(f"calibrate_slope: initial {k} = {v!r}: must be a number in (0, inf)")
+        start[k] = value
     for f in fields:  # the fit runs on the logarithms
         if not (math.isfinite(start[f]) and start[f] > 0):
             raise ValueError(
@@ -380,7 +392,7 @@ def calibrate_slope(
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
     if gradient not in ("ad", "fd"):
         raise ValueError(f"calibrate_slope: gradient must be 'ad' or 'fd', got {gradient!r}")
-    if not (math.isfinite(fd_step) and 0.0 < fd_step <= 0.5):
+    if _number(fd_step) is None or not (math.isfinite(fd_step) and 0.0 < fd_step <= 0.5):
         raise ValueError(f"calibrate_slope: fd_step must be in (0, 0.5] (log space), got {fd_step}")
     if gradient == "fd":
         vg = loss_and_fd_grad(problem, observed, grid, fields, fd_step)

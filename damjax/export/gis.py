@@ -583,16 +583,19 @@ def write_release_zones(
     *,
     stem: str = "release_zones",
     formats: tuple[str, ...] = ("gpkg", "shp"),
+    local: bool = False,
 ) -> dict[str, Path]:
-    """Write release zones (`release_zones`) as GeoPackage / ESRI shapefile / GeoJSON."""
+    """Write release zones (`release_zones`) as GeoPackage / ESRI shapefile / GeoJSON.
+    ``local``: the zones lie in the local frame of a run on no map (a plane or generic
+    slope), which has no CRS to state."""
     import warnings
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    if zones.crs is None:
+    if zones.crs is None and not local:
         warnings.warn(
-            "release zones without a CRS (the run's DEM has none, or the run is on a plane): "
-            "the files state none; pass crs= (--crs EPSG:...) to state one",
+            "release zones without a CRS (the run's DEM has none): the files state none; "
+            "pass crs= (--crs EPSG:...) to state one",
             stacklevel=2,
         )
     files = {}
@@ -632,7 +635,7 @@ def export_gis(
     frame = frame_of(ds, scenario, dem=dem, crs=crs)
     files = write_geotiffs(ds, frame, out_dir, resolution=resolution, scenario=scenario)
     zones = release_zones(ds, frame, threshold=threshold, min_cells=min_cells, scenario=scenario)
-    files.update(write_release_zones(zones, out_dir, formats=formats))
+    files.update(write_release_zones(zones, out_dir, formats=formats, local=frame.local))
     meta = {
         "source": str(Path(run).resolve()),
         "crs": frame.crs.to_string() if frame.crs is not None else None,

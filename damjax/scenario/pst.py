@@ -121,8 +121,11 @@ def _profile_values(
     elif not isinstance(file, str) or not file:
         problems.append(f"profile.file = {_fmt(file)}: must be a path (a string)")
     wl = table.get("weak_layer")
-    if wl is not None and (not isinstance(wl, int) or isinstance(wl, bool) or wl < 0):
-        problems.append(f"profile.weak_layer = {_fmt(wl)}: must be an integer >= 0 (0 = top)")
+    if wl is not None and (not isinstance(wl, int) or isinstance(wl, bool) or wl < 1):
+        problems.append(
+            f"profile.weak_layer = {_fmt(wl)}: must be an integer >= 1 (a layer index, 0 = "
+            "the top layer, which has no slab above it)"
+        )
     modulus = table.get("modulus", "scapozza")
     if modulus not in snow_profiles.MODULUS_RELATIONS:
         valid = "{" + ", ".join(f'"{c}"' for c in snow_profiles.MODULUS_RELATIONS) + "}"
