@@ -31,6 +31,7 @@ import jax
 import numpy as np
 
 from damjax import pst
+from damjax._tracing import under_staging
 from damjax.core.loop import (
     MEMORY_FRACTION,
     RunInfo,
@@ -207,6 +208,13 @@ def sweep(
         or not 0 < memory_fraction <= 1
     ):
         raise ValueError(f"memory_fraction = {memory_fraction!r}: {must_text('(0, 1]')}")
+    if under_staging():
+        raise TypeError(
+            "sweep: called inside jax.jit (or another staging transform); it runs a batch "
+            "on the host in compiled chunks. Inside jax.jit batch with jax.vmap(lambda p: "
+            "damjax.simulate_pst(p, setup, layout=layout)), or call sweep outside the "
+            "jitted function"
+        )
     n = batch_size_of(params_batch)
     batch = broadcast_batch(params_batch, n)
     prep = pst.prepare(batch, setup, batch=True, caller="sweep")

@@ -232,6 +232,10 @@ def test_concrete_runs_inside_a_jitted_function_keep_their_concrete_path():
     assert float(f(2.0)) == 2.0 * concrete.arrest_position_smooth
     g = eqx.filter_jit(lambda p: damjax.simulate_pst(p, setup).arrest_position_smooth)
     assert float(g(PARAMS)) == concrete.arrest_position_smooth
+    # sweep runs its batch on the host: inside jax.jit a line says what to use instead
+    batch = _with_theta(np.array(THETAS))
+    with pytest.raises(TypeError, match="sweep: called inside jax.jit.*jax.vmap"):
+        jax.jit(lambda x: x * damjax.sweep(batch, setup)[0].arrest_position_smooth)(2.0)
 
     params, sset = _slope_case(jnp.float32)
     area = damjax.simulate_slope(params, sset).summary["release_area_smooth_m2"]
