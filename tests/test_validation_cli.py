@@ -486,6 +486,7 @@ def test_set_overrides_a_scenario_key_and_is_checked_like_the_file(tmp_path, cap
         ("setup.durtion=0.1", "setup.durtion: unknown key (did you mean 'setup.duration'?)"),
         ("setup.duration=abc", 'setup.duration = "abc": must be a number in (0, inf) s'),
         ("duration", "--set duration: must be KEY=VALUE"),
+        ("setup.poison=0.3", "setup.poison: unknown key (did you mean 'params.poisson'?)"),
     ):
         rc = main(["run", "quick", "--set", bad, "--out", str(tmp_path / "bad"), "--quiet"])
         err = capsys.readouterr().err.strip().splitlines()

@@ -414,6 +414,10 @@ def _suggest(section: str | None, key: str) -> str:
     hit = difflib.get_close_matches(key, known[section], n=1, cutoff=0.6)
     if hit:
         return f" (did you mean '{section}.{hit[0]}'?)"
+    for other in SECTIONS:  # misspelled and misplaced: setup.poison -> params.poisson
+        hit = difflib.get_close_matches(key, known[other], n=1, cutoff=0.8)
+        if other != section and hit:
+            return f" (did you mean '{other}.{hit[0]}'?)"
     cls = {"params": "PSTParams", "setup": "PSTSetup", "output": "[output]"}[section]
     return f" (not a field of {cls}; see damjax.params)"
 

@@ -462,9 +462,13 @@ def check(
                 more = f" (did you mean 'params.{key}'?)"
             else:
                 hit = difflib.get_close_matches(key, sorted(known_setup), n=1)
+                param = [f.name for f in dataclasses.fields(PSTParams)]
+                phit = difflib.get_close_matches(key, param, n=1, cutoff=0.8)
                 more = (
                     f" (did you mean 'setup.{hit[0]}'?)"
                     if hit
+                    else f" (did you mean 'params.{phit[0]}'?)"
+                    if phit
                     else " (not a field of SlopeSetup; see damjax.params)"
                 )
             problems.append(f"setup.{key}: unknown key{more}")
