@@ -409,6 +409,30 @@ def _cm(v: Any, what: str, path: str) -> float:
     return value * scale
 
 
+def _warn_layer_gaps(path: str, spans: list[tuple[float, float]], hs: float) -> None:
+    """Warn (once, the first case) where a profile's layers (top, bottom) [m] from the
+    surface down leave a gap, overlap or run below the snow height ``hs`` [m]: a typo in
+    a depth or a thickness, or layers in mixed units, that the slab above a weak layer
+    would silently absorb."""
+    tol = 1e-6
+    for k in range(1, len(spans)):
+        b0, t1 = spans[k - 1][1], spans[k][0]
+        if abs(t1 - b0) > tol:
+            what = "a gap" if t1 > b0 else "an overlap"
+            warnings.warn(
+                f"{path}: layer {k - 1} ends at {100 * b0:g} cm depth, layer {k} starts at "
+                f"{100 * t1:g} cm ({what}): check their depths and thicknesses",
+                stacklevel=3,
+            )
+            return
+    if math.isfinite(hs) and spans and spans[-1][1] > hs + tol:
+        warnings.warn(
+            f"{path}: the layers reach {100 * spans[-1][1]:g} cm depth, below the snow "
+            f"height hs = {100 * hs:g} cm: check the units of the depths and thicknesses",
+            stacklevel=3,
+        )
+
+
 def read_caaml(path: str | os.PathLike) -> SnowProfile:
     """Read a CAAML 6 snow profile (SnowPilot export) with `snowpylot`.
 
@@ -452,6 +476,7 @@ def read_caaml(path: str | os.PathLike) -> SnowProfile:
             (t, t + d, hard, grain or "", bool(ly.layer_of_concern), k),
         )
     layers.sort(key=lambda r: r[0])
+    _warn_layer_gaps(path, [(t, b) for t, b, *_ in layers], hs)
     out = []
     for j, (t, b, hard, grain, loc, _) in enumerate(layers):
         out.append(

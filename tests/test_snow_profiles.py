@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -391,3 +392,21 @@ def test_scenario_profile_table(tmp_path, capsys):
     rc, out, err = _cli(capsys, "run", str(path), "--out", str(tmp_path / "run"), "--json")
     assert rc == 0, err
     _same_cut_length(json.loads(out), scn.params)
+
+
+def test_caaml_layers_with_a_gap_an_overlap_or_below_hs_are_warned():
+    """Layers that do not tile the column (a typo in a depth, a thickness in m among cm)
+    were read silently; the slab above a weak layer absorbs them."""
+    sp._warn_layer_gaps("p", [(0.0, 0.27), (0.27, 0.5)], 0.5)  # tiles the column: quiet
+    cases = [
+        (
+            [(0.0, 0.27), (0.28, 0.5)],
+            0.5,
+            "layer 0 ends at 27 cm depth, layer 1 starts at 28 cm (a gap)",
+        ),
+        ([(0.0, 0.27), (0.2, 0.5)], 0.5, "layer 1 starts at 20 cm (an overlap)"),
+        ([(0.0, 0.27), (0.27, 27.0)], 0.5, "reach 2700 cm depth, below the snow height hs = 50 cm"),
+    ]
+    for spans, hs, match in cases:
+        with pytest.warns(UserWarning, match=re.escape(match)):
+            sp._warn_layer_gaps("p", spans, hs)
