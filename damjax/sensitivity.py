@@ -32,7 +32,7 @@ from damjax.core.model import make_layout
 from damjax.diagnostics import GradientCheck, compare_gradient
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
 from damjax.sweep import sweep
-from damjax.validation import check_width, warn_notes
+from damjax.validation import as_number, check_width, warn_notes
 
 
 def gradient_check(
@@ -72,14 +72,15 @@ def gradient_check(
     """
     fields = [field] if isinstance(field, str) else list(field)
     names = [f.name for f in dataclasses.fields(PSTParams)]
+    scalars = [n for n in names if n not in PROFILE_FIELDS]
     problems = [
-        f"field = {f!r}: must be a scalar field of PSTParams ({names})"
+        f"field = {f!r}: must be a scalar field of PSTParams ({scalars})"
         for f in fields
-        if f not in names or f in PROFILE_FIELDS
+        if f not in scalars
     ]
     if not fields:
         problems.append("field: empty; name at least one PSTParams field")
-    if not 0.0 < rel_window <= 0.5:
+    if as_number(rel_window) is None or not 0.0 < rel_window <= 0.5:
         problems.append(f"rel_window = {rel_window!r}: must be in (0, 0.5]")
     if (
         isinstance(n_runs, bool)
@@ -88,7 +89,7 @@ def gradient_check(
         or n_runs % 2 == 0
     ):
         problems.append(f"n_runs = {n_runs!r}: must be an odd integer in [3, 1001]")
-    if not tolerance > 0.0:
+    if as_number(tolerance) is None or not tolerance > 0.0:
         problems.append(f"tolerance = {tolerance!r}: must be in (0, inf)")
     for f in fields:
         if not problems:

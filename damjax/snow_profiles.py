@@ -99,6 +99,10 @@ def youngs_modulus(density: Any, relation: str = "scapozza") -> Any:
     r = np.asarray(density) if not hasattr(density, "aval") else density
     if not hasattr(r, "aval"):
         lo, hi = MODULUS_DENSITY_RANGE
+        if r.dtype.kind not in "iuf":  # a string, None, a bool
+            raise ValueError(
+                f"density = {density!r}: must be a number or an array of numbers > 0 kg/m^3"
+            )
         bad = ~(np.isfinite(r) & (r > 0))
         if np.any(bad):
             if np.ndim(r) == 0:

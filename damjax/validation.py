@@ -154,6 +154,17 @@ def must_text(valid: str, integer: bool = False) -> str:
 # --------------------------------------------------------------------------- one field
 
 
+def as_number(v: Any) -> float | None:
+    """``v`` as a float where it is one number (not a bool, a string or an array), else
+    None: for the options of a function (a window, a tolerance), checked before use."""
+    if isinstance(v, (bool, str, bytes)) or np.ndim(v) != 0:
+        return None
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return None
+
+
 def _leaf_values(value: Any) -> list[float] | None:
     """All scalar values of a (possibly batched) leaf, or None if not numeric (a string
     or a bool is not a number here, though numpy would convert it)."""
@@ -685,10 +696,12 @@ def dubious(
         )
     if setup.controlled:
         default = PSTParams()
+        # every member of a batch (`damjax.sweep` broadcasts the fields it was not given)
         ignored = [
             k
             for k in ("tau_peak", "steady_length", "strength_gradient", "softening")
-            if (given is None or k in given) and _scalar(params, k) != getattr(default, k)
+            if (given is None or k in given)
+            and any(v != getattr(default, k) for v in _leaf_values(getattr(params, k)) or [])
         ]
         if params.strength_profile is not None:
             ignored.append("strength_profile")

@@ -27,6 +27,16 @@ def test_power_law_fit_rejects_bad_data():
         calibrate.fit_power_law([1.0, 2.0, -3.0], [1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="at least 3"):
         calibrate.fit_power_law([1.0, 2.0], [1.0, 2.0])
+    # the optimiser's options, as invert checks them: steps = 0 returned the starting
+    # guess as a fit, a NaN rate an all-NaN fit, a negative one an OverflowError
+    x = [1.0, 2.0, 4.0, 8.0]
+    for kw, match in [
+        ({"steps": 0}, "steps = 0: must be an integer >= 1"),
+        ({"learning_rate": float("nan")}, "learning_rate = nan: must be a number in"),
+        ({"learning_rate": -1.0}, "learning_rate = -1.0: must be a number in"),
+    ]:
+        with pytest.raises(ValueError, match=f"fit_power_law: {match}"):
+            calibrate.fit_power_law(x, [0.5 * v**1.5 for v in x], **kw)
 
 
 @pytest.mark.min_versions
@@ -113,6 +123,8 @@ def test_inversion_and_the_smooth_arrest_check_their_options():
         calibrate.invert([({"strength_gradiant": 1.0}, 4.0)], params, setup, ["softening"])
     with pytest.raises(ValueError, match=r"L_observed = 50.0: must be in \(0, 8\] m"):
         calibrate.invert([({}, 50.0)], params, setup, ["softening"])
+    with pytest.raises(TypeError, match="invert: params0 must be damjax.PSTParams, got dict"):
+        calibrate.invert(obs, {"softening": 1.0}, setup, ["softening"])
     # one field by its name is that field, not its letters (one line)
     with pytest.raises(ValueError, match=r"^fields: 'steady_lenght' is not a PSTParams field$"):
         calibrate.invert(obs, params, setup, "steady_lenght")

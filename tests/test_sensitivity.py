@@ -47,6 +47,10 @@ def test_gradient_check_rejects_bad_input():
         ({"field": "tau_peak", "rel_window": 0.0}, r"\(0, 0.5\]"),
         ({"field": "tau_peak", "tolerance": -1.0}, "tolerance"),
         ({"field": "tau_peak", "width": 0.0}, r"width = 0.0: must be None or a number in \(0, 1\]"),
+        # not numbers: Python's comparison errors before
+        ({"field": "tau_peak", "rel_window": "0.1"}, r"rel_window = '0.1': must be in"),
+        ({"field": "tau_peak", "tolerance": None}, r"tolerance = None: must be in"),
+        ({"field": "strength_profile"}, "must be a scalar field"),
     ]:
         with pytest.raises(ValueError, match=needle):
             damjax.gradient_check(params, SETUP, **kw)

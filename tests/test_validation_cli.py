@@ -491,3 +491,37 @@ def test_set_overrides_a_scenario_key_and_is_checked_like_the_file(tmp_path, cap
         rc = main(["run", "quick", "--set", bad, "--out", str(tmp_path / "bad"), "--quiet"])
         err = capsys.readouterr().err.strip().splitlines()
         assert rc == 2 and len(err) == 1 and needle in err[0], err
+
+
+def test_a_unit_mix_up_in_a_scenario_is_said_beside_the_problems_it_causes(capsys):
+    """E = 4 (MPa meant) makes dx too coarse for Lambda: the scenario's error line came
+    alone, without the unit hint the Python API warns (docs/api/params.md)."""
+    from damjax import scenario
+
+    data = {"type": "pst", "name": "x", "params": {"youngs_modulus": 4}}
+    assert any("did you mean 4 MPa = 4e6 Pa?" in n for n in scenario.dubious(data))
+    with pytest.warns(scenario.ScenarioWarning, match="did you mean 4 MPa"):
+        with pytest.raises(ValueError, match="setup.dx = .*must be at most Lambda/2"):
+            scenario.load("quick", sets=["params.youngs_modulus=4"])
+    assert main(["run", "quick", "--set", "params.youngs_modulus=4", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "did you mean 4 MPa = 4e6 Pa?" in err and "Lambda/2" in err
+
+
+def test_a_controlled_sweep_reports_only_the_strength_fields_it_was_given():
+    """`damjax.sweep` broadcasts every field of a batch: a controlled sweep over saw
+    speeds reported the default strength fields it never set as ignored."""
+    import numpy as np
+
+    from damjax.sweep import broadcast_batch
+    from damjax.validation import dubious
+
+    setup = PSTSetup(length=10.0, dx=0.05, duration=0.05, controlled=True)
+
+    def ignored(params):
+        lines = [p.reason for p in dubious(broadcast_batch(params, 2), setup)]
+        return [ln for ln in lines if "ignored" in ln]
+
+    assert ignored(PSTParams(saw_speed=np.array([10.0, 20.0]))) == []
+    (line,) = ignored(PSTParams(saw_speed=np.array([10.0, 20.0]), tau_peak=np.array([9e2, 1e3])))
+    assert "tau_peak" in line and "steady_length" not in line and "softening" not in line

@@ -20,7 +20,8 @@ import numpy as np
 from damjax import pst
 from damjax.core.loop import cpu_compiler_options
 from damjax.core.model import check_layout
-from damjax.validation import InputError, check_width, param_problems
+from damjax.params import PSTParams, PSTSetup
+from damjax.validation import InputError, as_number, check_width, expect_types, param_problems
 
 
 @dataclasses.dataclass
@@ -93,17 +94,6 @@ def optimizer_problems(steps: Any, learning_rate: Any, tol: Any = None) -> list[
     return out
 
 
-def _number(v: Any) -> float | None:
-    """``v`` as a float where it is one number (not a bool, a string or an array), else
-    None."""
-    if isinstance(v, (bool, str, bytes)) or np.ndim(v) != 0:
-        return None
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return None
-
-
 def _observation_pairs(observations: Any) -> list[tuple[dict[str, float], float]]:
     """``observations`` as a list of (overrides, L_observed) pairs; ValueError naming the
     form when it is not one (a plain array of arrest positions has no overrides)."""
@@ -157,6 +147,8 @@ def invert(
     """
     if isinstance(fields, str):  # one name, not its letters
         fields = (fields,)
+    setup = PSTSetup() if setup is None else setup
+    expect_types("invert", params0=(params0, PSTParams), setup=(setup, PSTSetup))
     observations = _observation_pairs(observations)
     known = {f.name for f in dataclasses.fields(params0)}
     problems = [f"fields: {f!r} is not a PSTParams field" for f in fields if f not in known]
@@ -191,12 +183,12 @@ def invert(
         problems += [
             f"observations[{i}]: override {k} = {v!r}: must be a number"
             for k, v in over_i.items()
-            if k in known and k not in fields and _number(v) is None
+            if k in known and k not in fields and as_number(v) is None
         ]
     if not observations:
         problems.append("observations: empty; give at least one (overrides, L_observed) pair")
     for i, (_, observed) in enumerate(observations):
-        if _number(observed) is None or not math.isfinite(float(observed)):
+        if as_number(observed) is None or not math.isfinite(float(observed)):
             problems.append(
                 f"observations[{i}]: L_observed = {observed!r}: must be a finite arrest "
                 "position [m] (a run that did not arrest has none: NaN)"

@@ -70,6 +70,11 @@ def fit_power_law(
     x: Sequence[float], y: Sequence[float], *, steps: int = 3000, learning_rate: float = 0.05
 ) -> PowerLawFit:
     """Fit y = a x^b by gradient descent (optax Adam) on the log-space squared error."""
+    from damjax.calibrate.inversion import optimizer_problems  # (it imports this module)
+
+    problems = optimizer_problems(steps, learning_rate)
+    if problems:
+        raise ValueError("\n".join(f"fit_power_law: {p}" for p in problems))
     if np.ndim(x) != 1 or np.ndim(y) != 1 or np.size(x) != np.size(y):
         raise ValueError(
             f"fit_power_law: x and y must be 1-D of the same length (shapes {np.shape(x)}, "

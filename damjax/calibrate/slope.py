@@ -39,7 +39,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from damjax.calibrate.inversion import (
-    _number,
     _positive_scalar,
     _stopped_early,
     optimizer_problems,
@@ -51,6 +50,7 @@ from damjax.materials import mcc, weak_layer
 from damjax.params import PSTParams, SlopeSetup
 from damjax.slope.simulation import SlopeResult, prepare, warn_notes
 from damjax.slope.simulation import particle_damage as slope_particle_damage
+from damjax.validation import as_number
 
 CALIBRATED = ("tensile_strength", "softening")
 # relative width w of the damage ramp: wider than the 1D surrogate's 0.1, because after an
@@ -213,7 +213,7 @@ def observed_release(
     observation cell, plus Gaussian noise of `noise_std`, thresholded at 1/2 (a mapped
     release polygon with mapping errors near its edge) [0/1 float array]."""
     cx = np.repeat(result.x, result.y.size)
-    noise = _number(noise_std)
+    noise = as_number(noise_std)
     if noise is None or not (math.isfinite(noise) and noise >= 0.0):
         raise ValueError(f"observed_release: noise_std = {noise_std!r}: must be a number >= 0")
     cy = np.tile(result.y, result.x.size)
@@ -362,7 +362,7 @@ def calibrate_slope(
     if unknown:
         raise ValueError(f"calibrate_slope: initial {unknown}: not one of {CALIBRATED}")
     for k, v in (initial or {}).items():
-        value = _number(v)
+        value = as_number(v)
         if value is None:
             raise ValueError(f"calibrate_slope: initial {k} = {v!r}: must be a number in (0, inf)")
         start[k] = value
@@ -392,7 +392,7 @@ def calibrate_slope(
     x = jnp.asarray([math.log(start[f]) for f in fields], dtype)
     if gradient not in ("ad", "fd"):
         raise ValueError(f"calibrate_slope: gradient must be 'ad' or 'fd', got {gradient!r}")
-    if _number(fd_step) is None or not (math.isfinite(fd_step) and 0.0 < fd_step <= 0.5):
+    if as_number(fd_step) is None or not (math.isfinite(fd_step) and 0.0 < fd_step <= 0.5):
         raise ValueError(f"calibrate_slope: fd_step must be in (0, 0.5] (log space), got {fd_step}")
     if gradient == "fd":
         vg = loss_and_fd_grad(problem, observed, grid, fields, fd_step)

@@ -74,7 +74,8 @@ def check(
     except InputError as exc:
         bad = pbad | sbad  # their kind was reported: the checks saw the default
         problems += toml_lines([p for p in exc.problems if p.field not in bad], given)
-        return None, []
+        # a unit mix-up (E = 4 Pa: did you mean 4 MPa?) explains the problems it causes
+        return None, toml_lines(exc.notes, given)
     if problems:
         return None, []
     scn = Scenario(

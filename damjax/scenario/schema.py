@@ -356,6 +356,9 @@ def parse(
     """
     scn, problems, notes = _check(data, base_dir)
     if problems:
+        if warn:  # a unit mix-up first: it explains the lines that follow
+            for note in notes:
+                warnings.warn(note, ScenarioWarning, stacklevel=2)
         raise ValueError("\n".join(problems))
     assert scn is not None
     if warn:
@@ -371,7 +374,8 @@ def problems(data: dict[str, Any]) -> list[str]:
 
 
 def dubious(data: dict[str, Any]) -> list[str]:
-    """One line per valid but physically dubious value (the warnings of `parse`)."""
+    """One line per valid but physically dubious value (the warnings of `parse`); where
+    the scenario has problems, the lines on implausible values (a unit hint)."""
     return _check(data)[2]
 
 
@@ -622,7 +626,9 @@ def _check(
         return None, problems, []
     check = _TYPES["slope"][0] if kind == "slope" else _TYPES["pst"][0]
     scn, notes = check(data, base_dir, problems)
-    return (None, problems, []) if problems else (scn, [], notes)
+    # with problems, the notes are those on implausible values (a unit hint), which
+    # explain them
+    return (None, problems, notes) if problems else (scn, [], notes)
 
 
 # --------------------------------------------------------------------------- writing

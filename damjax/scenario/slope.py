@@ -570,7 +570,7 @@ def check(
         bad = pbad | sbad  # their kind was reported: the checks saw the default
         reported = [p for p in exc.problems if p.field not in bad]
         problems += _lines(reported, given, terrain or {"kind": "plane"}, "start" in svals)
-        return None, []
+        return None, toml_lines(exc.notes, given)  # a unit mix-up explains the problems
     if problems:
         return None, []
     # a weak layer that fails under its own slab outside the trigger: a natural release
