@@ -642,7 +642,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("out", metavar="OUT", help="output folder (AVADIR for --to avaframe)")
     p.add_argument("--to", choices=("gis", "avaframe"), required=True, help="what to write")
     p.add_argument("--scenario", metavar="FILE", default=None, help="the scenario file (ensembles)")
-    p.add_argument("--crs", default=None, help="override the DEM's CRS, e.g. EPSG:2056")
+    p.add_argument(
+        "--crs",
+        default=None,
+        help="the CRS of a DEM that states none, e.g. EPSG:2056 (a projected CRS; it labels "
+        "the files, it does not reproject them, so a DEM's own CRS stays)",
+    )
     p.add_argument(
         "--threshold",
         type=_probability,

@@ -300,14 +300,33 @@ def weakest_inside(
 ) -> tuple[float, float]:
     """The weakest point of tau (box-smoothed over 2 m, as `damjax.slope.generic.weak_spot`)
     among the cells ``inside`` [m]."""
-    from damjax import fields
 
     if not np.any(inside):
         raise ReleaseAreaError("terrain.release: no cell centre of the run inside the polygon")
-    k = max(1, int(round(1.0 / dx)))
-    smooth = np.asarray(fields.box_sum(tau, k, mode="edge")) / (2 * k + 1) ** 2
+    smooth = smoothed_strength(tau, dx)
+    if not np.any(inside & np.isfinite(smooth)):
+        raise ReleaseAreaError(
+            "terrain.release: every cell inside the polygon has an infinite strength (no "
+            "snow there, or an unbreakable layer): no weak spot to start the crack"
+        )
     i, j = np.unravel_index(np.argmin(np.where(inside, smooth, np.inf)), smooth.shape)
     return float(x[i]), float(y[j])
+
+
+def smoothed_strength(tau: np.ndarray, dx: float) -> np.ndarray:
+    """tau [any unit] averaged over 2 m boxes ((2k + 1) cells of ``dx`` [m] a side, the
+    edges repeated), over the finite cells of each box only; inf on the cells of infinite
+    strength (no snow, an unbreakable layer), which are never the weakest (a cumulative
+    sum over an inf gave NaN boxes, and argmin took the first of them). Where every cell
+    is finite, the plain box mean."""
+    from damjax import fields
+
+    tau = np.asarray(tau, dtype=float)
+    k = max(1, int(round(1.0 / dx)))
+    ok = np.isfinite(tau)
+    count = fields.box_sum(ok.astype(float), k, mode="edge")  # (2k + 1)^2 where all are
+    total = fields.box_sum(np.where(ok, tau, 0.0), k, mode="edge")
+    return np.where(ok, total / np.maximum(count, 1.0), np.inf)
 
 
 def compare_release(

@@ -349,3 +349,9 @@ def test_an_unknown_crs_is_one_line_without_gdal_s_own(run_dir, capfd):
         gis.frame_of(ds, crs="EPSG:999999")
     assert "ERROR" not in capfd.readouterr().err
     assert gis.frame_of(ds, crs="EPSG:2056").crs.to_epsg() == 2056
+    # a stated CRS labels the DEM's grid: degrees, or another CRS than the DEM's own,
+    # relabelled the files silently
+    with pytest.raises(ValueError, match=r"crs = 'EPSG:4326': a geographic CRS \(degrees\)"):
+        gis.frame_of(ds, crs="EPSG:4326")
+    with pytest.raises(ValueError, match=r"crs = 'EPSG:31287': the DEM \(plane.asc\) states"):
+        gis.frame_of(ds, crs="EPSG:31287")

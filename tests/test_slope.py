@@ -17,7 +17,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from damjax import PSTParams, PSTSetup, SlopeSetup, plot, scenario, simulate_slope, terrain
+from damjax import (
+    PSTParams,
+    PSTSetup,
+    SlopeSetup,
+    fields,
+    plot,
+    scenario,
+    simulate_slope,
+    terrain,
+)
 from damjax.cli import main
 from damjax.materials import weak_layer
 from damjax.pst import simulate_pst
@@ -26,6 +35,7 @@ from damjax.slope import results as slope_results
 from damjax.slope.generic import (
     FIG12B,
     GenericSlopeCase,
+    full_window,
     slope_field,
     strength_field,
     weak_spot,
@@ -247,6 +257,32 @@ def test_shipped_fig12a_scenario_is_the_papers_case():
     assert 34.0 <= start_b[0] <= 40.0 and 92.0 <= start_b[1] <= 98.0
     assert np.allclose(strength_field(FIG12B), tau_b, atol=1e-3)
     assert weak_spot(FIG12B, tau_b) == pytest.approx(start_b)
+
+
+def test_the_weakest_spot_skips_cells_without_snow():
+    """Cells of infinite strength (no snow) in a start window: the box sums turned their
+    neighbourhood into NaN and the start became the window's first cell, or a cell
+    without snow; now the weakest snow-covered spot, and a window without snow is one
+    line."""
+    case = GenericSlopeCase(length=10.0, width=6.0, dx=0.5, start_window=(0.0, 10.0), planar=True)
+    x = (np.arange(20) + 0.5) * 0.5
+    y = (np.arange(12) + 0.5) * 0.5
+    tau = 1000.0 + 10.0 * (x[:, None] - 7.0) ** 2 + 5.0 * (y[None, :] - 3.0) ** 2
+    tau[:4, :] = np.inf  # no snow on the lowest 2 m
+    tau[10:12, 4:8] = np.inf  # a rock
+    sx, sy = weak_spot(case, tau)
+    assert np.isfinite(tau[int(sx / 0.5), int(sy / 0.5)])
+    assert abs(sx - 7.0) <= 1.0 and abs(sy - 3.0) <= 1.0  # the minimum, not the first cell
+    # all finite: the plain box mean (2 m boxes: k = 2 cells each side, edges repeated)
+    finite = np.where(np.isfinite(tau), tau, 900.0 + x[:, None] + y[None, :])
+    smooth = fields.box_sum(finite, 2, mode="edge") / 25.0
+    x_lo, x_hi, y_lo, y_hi = full_window(case.start_window, case.width)
+    sel = (x[:, None] >= x_lo) & (x[:, None] <= x_hi) & (y >= y_lo) & (y <= y_hi)
+    i, j = np.unravel_index(np.argmin(np.where(sel, smooth, np.inf)), smooth.shape)
+    assert weak_spot(case, finite) == (x[i], y[j])
+    tau[:, :] = np.inf
+    with pytest.raises(ValueError, match="every cell in it has an infinite strength"):
+        weak_spot(case, tau)
 
 
 @pytest.mark.min_versions

@@ -317,6 +317,21 @@ def frame_of(
         ) from None
     if s[-1] < nx * dx:
         raise ValueError(f"{file}: the release area's centre line leaves the DEM")
+    own = dem_crs(file)
+    if user_crs is not None:
+        # the files are on the DEM's grid, in its units: a stated CRS labels them, it does
+        # not reproject them, so it must be a projected one, and the DEM's where it has one
+        if user_crs.is_geographic:
+            raise ValueError(
+                f"crs = {crs!r}: a geographic CRS (degrees); the run's files are in the "
+                "DEM's metres: state a projected CRS (the DEM's)"
+            )
+        if own is not None and user_crs != own:
+            raise ValueError(
+                f"crs = {crs!r}: the DEM ({file.name}) states {own.to_string()}; a CRS stated "
+                "at export labels the files, it does not reproject them: leave it out (the "
+                "DEM's is used), or reproject the exported files afterwards"
+            )
     return Frame(
         dx,
         nx,
@@ -326,7 +341,7 @@ def frame_of(
         v,
         a,
         s,
-        user_crs if user_crs is not None else dem_crs(file),
+        user_crs if user_crs is not None else own,
         False,
         str(file),
     )

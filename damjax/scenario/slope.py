@@ -145,7 +145,7 @@ from damjax.scenario.slope_fields import (
 )
 from damjax.slope import simulation
 from damjax.slope.generic import window_problem
-from damjax.validation import InputError, Problem
+from damjax.validation import InputError, Problem, implausible
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
 STRENGTH_KINDS = ("constant", "grf", "map", "stability", "coulomb")
@@ -587,7 +587,8 @@ def check(
             f"setup.start = {_fmt(list(scn.setup.start))} is not used: strength.start_window "
             f"picks the start, ({start[0]:.4g}, {start[1]:.4g}) m"
         )
-    return scn, notes
+    # values outside their plausible ranges, as a PST scenario says them (a unit hint)
+    return scn, toml_lines(implausible(scn.params, pgiven), given) + notes
 
 
 class _Unread(Exception):

@@ -360,8 +360,13 @@ def _resolve(scn: Any) -> SlopeInputs:
             if area is not None:
                 domain &= area.domain_mask(x, y)
             if not domain.any():
+                o = [float(c) for c in ter.get("origin", (0.0, 0.0))]
                 raise _FieldProblem(
-                    f"terrain.file = {_fmt(ter['file'])}: no DEM data in the domain"
+                    f"terrain.origin = {o}: no DEM data in the domain: the release area "
+                    "is laid on the DEM along its centre line from terrain.origin, which "
+                    f"must run over the DEM's data ({_fmt(ter['file'])} spans x "
+                    f"[{dem.x[0]:.6g}, {dem.x[-1]:.6g}], y [{dem.y[0]:.6g}, {dem.y[-1]:.6g}] "
+                    "in its CRS)"
                 )
             slope = np.where(domain, slope, np.nan)
             fall = np.where(domain, fall, np.nan)
@@ -604,9 +609,15 @@ def _snow_cover(
         cells = np.isfinite(thickness) if domain is None else np.isfinite(thickness) & domain
         thick = float(np.max(thickness[cells])) if np.any(cells) else 0.0
         if thick > plausible.hi:
+            hint = ""
+            if kind == "depth_map" and thick / 100.0 <= plausible.hi:
+                hint = (
+                    ": did you mean centimetres? snow.file must hold the depth HS in m "
+                    "(divide a raster in cm by 100)"
+                )
             warnings.warn(
                 f"snow: slab thicknesses up to {thick:.3g} m, above the {plausible.hi:g} m "
-                f'of dry-snow slab avalanches ({plausible}; snow.kind = "{kind}")',
+                f'of dry-snow slab avalanches ({plausible}; snow.kind = "{kind}"){hint}',
                 stacklevel=2,
             )
     mask = None

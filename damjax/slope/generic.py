@@ -248,12 +248,15 @@ def _default_mean_at(case: GenericSlopeCase) -> float:
 
 
 def weak_spot(case: GenericSlopeCase, tau: np.ndarray) -> tuple[float, float]:
-    """The weakest point of tau (box-smoothed over 2 m) in the start window [m]."""
-    x, y = cell_centres(case)
-    from damjax import fields
+    """The weakest point of tau (box-smoothed over 2 m) in the start window [m]. Cells
+    of infinite strength (no snow there, or an unbreakable layer) are left out of the
+    boxes' means and are never the start: a cumulative sum over an inf gave NaN boxes,
+    and argmin the first of them."""
+    from damjax.release_area import smoothed_strength
 
-    k = max(1, int(round(1.0 / case.dx)))
-    smooth = fields.box_sum(tau, k, mode="edge") / (2 * k + 1) ** 2
+    x, y = cell_centres(case)
+    smooth = smoothed_strength(tau, case.dx)
+    ok = np.isfinite(smooth)
     x_lo, x_hi, y_lo, y_hi = full_window(case.start_window, case.width)
     sel = (x[:, None] >= x_lo) & (x[:, None] <= x_hi) & (y[None, :] >= y_lo) & (y[None, :] <= y_hi)
     if not np.any(sel):
@@ -262,6 +265,12 @@ def weak_spot(case: GenericSlopeCase, tau: np.ndarray) -> tuple[float, float]:
             f"dx = {case.dx} m grid (cell centres at (k + 0.5) dx: x from {x[0]:.4g} to "
             f"{x[-1]:.4g} m, y from {y[0]:.4g} to {y[-1]:.4g} m; the window spans x "
             f"[{x_lo:g}, {x_hi:g}], y [{y_lo:g}, {y_hi:g}] m); widen it"
+        )
+    if not np.any(sel & ok):
+        raise ValueError(
+            f"start_window = {list(case.start_window)}: every cell in it has an infinite "
+            "strength (no snow-covered cell there, or an unbreakable layer); move or widen "
+            "it onto the slab"
         )
     i, j = np.unravel_index(np.argmin(np.where(sel, smooth, np.inf)), smooth.shape)
     return float(x[i]), float(y[j])

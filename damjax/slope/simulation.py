@@ -394,7 +394,11 @@ def _domain_notes(
     unless the weak layer or the slab stops the crack inside it, the release will end on
     the domain's edge (said before the run, not after it)."""
     phi = float(params.friction_deg)
-    region = sliding_region(slope_deg, phi, setup.start, setup.dx, cover, domain)
+    # the start within the area (checked) may lie beyond the grid's last cell where the
+    # area is not a whole number of cells (30 m at dx 0.46: 65 cells, 29.9 m): that cell
+    size = np.shape(slope_deg)
+    start = tuple(min(float(c), n * setup.dx) for c, n in zip(setup.start, size, strict=True))
+    region = sliding_region(slope_deg, phi, start, setup.dx, cover, domain)
     frac = domain_edge_fraction(region, domain)  # None when the region is empty
     if frac is None or frac <= DOMAIN_EDGE_WARN:
         return []
