@@ -223,8 +223,9 @@ def read_release_area(
         ):
             raise ReleaseAreaError(
                 f"{key} = {path.name!r}: the polygon spans x [{xmin:.1f}, {xmax:.1f}], y "
-                f"[{ymin:.1f}, {ymax:.1f}] m, outside the DEM's x [{terrain.x[0]:.1f}, "
-                f"{terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, {terrain.y[-1]:.1f}] m"
+                f"[{ymin:.1f}, {ymax:.1f}] m and reaches outside the DEM's x "
+                f"[{terrain.x[0]:.1f}, {terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, "
+                f"{terrain.y[-1]:.1f}] m: the whole polygon must lie on the DEM"
             )
     inside = buffer is not None or (
         xmin - margin >= terrain.x[0]
@@ -236,8 +237,9 @@ def read_release_area(
         raise ReleaseAreaError(
             f"{key} = {path.name!r}: the polygon plus terrain.margin = {margin:g} m spans x "
             f"[{xmin - margin:.1f}, {xmax + margin:.1f}], y [{ymin - margin:.1f}, "
-            f"{ymax + margin:.1f}] m, outside the DEM's x [{terrain.x[0]:.1f}, "
-            f"{terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, {terrain.y[-1]:.1f}] m"
+            f"{ymax + margin:.1f}] m and reaches outside the DEM's x [{terrain.x[0]:.1f}, "
+            f"{terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, {terrain.y[-1]:.1f}] m: the whole "
+            "polygon and its margin must lie on the DEM"
         )
     if upslope is None:
         gx, gy = terrain.gradient()
