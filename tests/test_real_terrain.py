@@ -155,6 +155,30 @@ def test_depth_map_and_slope_corrected_thickness(tmp_path):
     np.testing.assert_allclose(inp.thickness[inp.cover], want[inp.cover], rtol=1e-9)
 
 
+def test_a_snow_raster_without_a_crs_on_a_dem_with_one_is_said(tmp_path):
+    """A depth raster or mask that states no CRS is read in the DEM's: said, where it was
+    taken silently (a raster in another CRS is refused, one without none was not)."""
+    from pyproj import CRS
+
+    dem = _tilted_dem(tmp_path)
+    doc = _dem_doc(dem, max_slope_deg=60.0)
+    doc["snow"] = {"kind": "depth_map", "file": "hs.asc"}
+    doc["setup"]["dx"] = 0.2
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenario.parse(doc, base_dir=tmp_path)  # no CRS anywhere: nothing to say
+    assert not [w for w in caught if "states no CRS" in str(w.message)]
+    dem.with_suffix(".prj").write_text(CRS.from_epsg(2056).to_wkt(version="WKT1_ESRI"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenario.parse(doc, base_dir=tmp_path)
+    said = [str(w.message) for w in caught if "states no CRS" in str(w.message)]
+    assert said == [
+        "snow.file = 'hs.asc': states no CRS; read in the DEM's ('CH1903+ / LV95')"
+        ": give the file its CRS (a .prj, or the GeoTIFF's) if it is another"
+    ]
+
+
 def test_snow_key_errors_name_the_key(tmp_path):
     dem = _tilted_dem(tmp_path)
     for snow, match in (

@@ -675,6 +675,15 @@ def _check_crs(scn: Any, key: str, name: str, crs: str | None) -> None:
         from damjax.release_area import _same_crs, dem_crs
 
         dcrs = dem_crs(scn.terrain["file"])
+        if crs is None and dcrs is not None:  # read as the DEM's: said, not silently
+            import pyproj
+
+            warnings.warn(
+                f"snow.{key} = {name}: states no CRS; read in the DEM's "
+                f"({pyproj.CRS(dcrs).name!r}): give the file its CRS (a .prj, or the "
+                "GeoTIFF's) if it is another",
+                stacklevel=2,
+            )
         if crs is not None and dcrs is not None and not _same_crs(crs, dcrs):
             import pyproj
 
