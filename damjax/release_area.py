@@ -302,7 +302,6 @@ def weakest_inside(
 ) -> tuple[float, float]:
     """The weakest point of tau (box-smoothed over 2 m, as `damjax.slope.generic.weak_spot`)
     among the cells ``inside`` [m]."""
-
     if not np.any(inside):
         raise ReleaseAreaError("terrain.release: no cell centre of the run inside the polygon")
     smooth = smoothed_strength(tau, dx)

@@ -341,15 +341,15 @@ class SnowProfile:
         w = np.diff(edges) / depth
         z = 0.5 * (edges[1:] + edges[:-1])
         rho = self.density_at(z)
-        nonpositive = sorted(
-            {
+        k = next(
+            (
                 k
                 for k, ly in enumerate(self.layers[:i])
                 if np.isfinite(ly.density) and ly.density <= 0
-            }
+            ),
+            None,
         )
-        if nonpositive:
-            k = nonpositive[0]
+        if k is not None:
             raise ValueError(
                 f"{self.source}: layer {k} ({100 * self.layers[k].top:.1f}-"
                 f"{100 * self.layers[k].bottom:.1f} cm) has density {self.layers[k].density:g} "

@@ -38,11 +38,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax.calibrate.inversion import (
-    _positive_scalar,
-    _stopped_early,
-    optimizer_problems,
-)
+from damjax.calibrate.inversion import _positive_scalar, _stopped_early, optimizer_problems
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State

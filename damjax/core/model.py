@@ -81,13 +81,20 @@ def time_step(params: PSTParams, setup: PSTSetup) -> float:
 
 def _slide_accel(params: PSTParams) -> float:
     """Acceleration of a fully released slab, g (sin psi - cos psi tan phi) >= 0 [m/s^2]
-    (at the steepest point of a slope profile)."""
+    (at the steepest point of a slope profile; the largest of a batch)."""
+    return float(np.max(_slide_accels(params)))
+
+
+def _slide_accels(params: PSTParams, xp: Any = np) -> Any:
+    """`_slide_accel` per member of a batch: numpy in float64 for concrete parameters,
+    ``xp = jax.numpy`` for traced ones (the runtime guard, `_guarded_dt`)."""
+    arr = (lambda v: np.asarray(v, dtype=float)) if xp is np else jnp.asarray  # noqa: E731
     if params.slope_profile is None:
-        psi = np.radians(np.asarray(params.slope_deg, dtype=float))
+        psi = xp.radians(arr(params.slope_deg))
     else:
-        psi = np.radians(np.max(np.asarray(params.slope_profile, dtype=float), axis=-1))
-    phi = np.radians(np.asarray(params.friction_deg, dtype=float))
-    return float(np.max(np.maximum(G_ACC * (np.sin(psi) - np.cos(psi) * np.tan(phi)), 0.0)))
+        psi = xp.radians(xp.max(arr(params.slope_profile), axis=-1))
+    phi = xp.radians(arr(params.friction_deg))
+    return xp.maximum(G_ACC * (xp.sin(psi) - xp.cos(psi) * xp.tan(phi)), 0.0)
 
 
 def _max_cohesive_slip(params: PSTParams) -> float:
@@ -192,7 +199,7 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
         # float32's rounding of the same parameters the layout was made from
         lateral = "constrained" if setup.dim == 2 else setup.lateral
         c = theory.longitudinal_wave_speed(params, lateral)
-        dt_max = setup.cfl * setup.dx / (c + _traced_slide_accel(params) * setup.duration)
+        dt_max = setup.cfl * setup.dx / (c + _slide_accels(params, jnp) * setup.duration)
         dt = eqx.error_if(
             dt,
             jnp.any(dt > dt_max * (1.0 + 1e-5)),
@@ -203,16 +210,6 @@ def _guarded_dt(params: PSTParams, setup: PSTSetup, dt: Any, elastic_guard: Any)
             "slope_deg you evaluate",
         )
     return dt
-
-
-def _traced_slide_accel(params: PSTParams) -> Any:
-    """`_slide_accel` of traced parameters (a JAX array, batched as they are)."""
-    if params.slope_profile is None:
-        psi = jnp.radians(jnp.asarray(params.slope_deg))
-    else:
-        psi = jnp.radians(jnp.max(jnp.asarray(params.slope_profile), axis=-1))
-    phi = jnp.radians(jnp.asarray(params.friction_deg))
-    return jnp.maximum(G_ACC * (jnp.sin(psi) - jnp.cos(psi) * jnp.tan(phi)), 0.0)
 
 
 def build(params: PSTParams, setup: PSTSetup, layout: Layout) -> tuple[Model, State]:

@@ -98,7 +98,7 @@ def slice_dataset(ens: Ensemble, idx: list[int], results: list[Any]) -> Any:
 
     def var(dims: tuple[str, ...], data: Any, units: str | None, long_name: str) -> Any:
         # text (a front's state) has no units (CF: units are for numbers)
-        attrs = {"long_name": long_name} if units is None else {"units": units}
+        attrs = {} if units is None else {"units": units}
         return xr.Variable(dims, np.asarray(data), {**attrs, "long_name": long_name})
 
     data: dict[str, Any] = {

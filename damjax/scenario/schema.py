@@ -75,7 +75,6 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import importlib.resources
-import json
 import math
 import re
 import warnings
@@ -315,9 +314,7 @@ def override(data: dict[str, Any], sets: Iterable[str]) -> dict[str, Any]:
             sub = table.setdefault(k, {})
             if not isinstance(sub, dict):
                 where = ".".join(parts[: depth + 1])
-                raise ValueError(
-                    f"--set {item}: {where} = {_fmt_value(sub)} is a value, not a table"
-                )
+                raise ValueError(f"--set {item}: {where} = {_fmt(sub)} is a value, not a table")
             table = sub
         if remove:
             table.pop(parts[-1], None)
@@ -451,11 +448,6 @@ _KIND_TEXT = {
     "str?": "a string",
     "array": "a number or an array of numbers",
 }
-
-
-def _fmt_value(v: Any) -> str:
-    """A TOML value as a scenario file writes it (strings quoted)."""
-    return json.dumps(v) if isinstance(v, (str, bool)) else str(v)
 
 
 def key_kind(cls: type, name: str) -> str:
