@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -188,6 +189,14 @@ def read_release_area(
             raise ReleaseAreaError(
                 f"{key} = {path.name!r}: CRS {pyproj.CRS(crs).name!r} differs from the DEM's "
                 f"(terrain.file, {pyproj.CRS(dcrs).name!r}); reproject one of them"
+            )
+        if crs is None and dcrs is not None:  # read as the DEM's: said, not silently
+            import pyproj
+
+            warnings.warn(
+                f"{key} = {path.name!r}: states no CRS (no .prj); read in the DEM's "
+                f"({pyproj.CRS(dcrs).name!r}): give the file its CRS if it is another",
+                stacklevel=2,
             )
         crs = crs or dcrs
     thickness: float | None = None

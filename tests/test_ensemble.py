@@ -116,6 +116,10 @@ def _doc(extra: str) -> str:
             'ensemble.strength.seed: cannot be drawn (strength.kind = "grf" draws: mean',
         ),
         ("[ensemble]\nseeds = [1, 2]\nmembers = 3\n", "ensemble.seeds: 2 seeds for 3 members"),
+        (
+            "[ensemble]\nseeds = [4, 7, 4, 9]\nmembers = 3\n",
+            "ensemble.seeds: members 0 and 2 share seed 4: their strength fields",
+        ),
     ],
 )
 def test_bad_ensemble_tables_give_one_line_errors(tmp_path, table, needle):
@@ -582,3 +586,17 @@ def test_string_states_of_later_slices_keep_their_length(tmp_path):
     io.write_dataset(tmp_path / "both.nc", both)
     back = io.open_dataset(tmp_path / "both.nc")["front"].values.astype(str).tolist()
     assert back == ["moving", "reached_edge"]
+
+
+def test_members_warnings_are_said_once_per_kind():
+    from damjax.ensemble.batch import _warn_grouped
+    from damjax.slope.simulation import SlopeRunWarning
+
+    edge = "simulate_slope: {} % of the released area's boundary lies on the domain's edge"
+    rows = [(0, edge.format(50)), (1, edge.format(72.7)), (3, "the crack never ran ahead")]
+    with pytest.warns(SlopeRunWarning) as caught:
+        _warn_grouped(rows)
+    assert [str(w.message) for w in caught] == [
+        "2 members (0, 1); member 0: " + edge.format(50),
+        "1 member (3); member 3: the crack never ran ahead",
+    ]

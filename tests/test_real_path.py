@@ -117,6 +117,16 @@ def test_crs_mismatch_is_named(tmp_path):
         _load(data, tmp_path)
 
 
+def test_a_polygon_without_a_crs_is_read_in_the_dems_with_a_warning(tmp_path):
+    square = gpd.read_file(_square(tmp_path, thickness=1.0))
+    square.set_crs(None, allow_override=True).to_file(tmp_path / "bare.shp")
+    assert not (tmp_path / "bare.prj").exists()
+    data = _toy_data(tmp_path, release=str(tmp_path / "bare.shp"))
+    with pytest.warns(UserWarning, match=r"terrain.release = 'bare.shp': states no CRS"):
+        scn = scenario.parse(data, base_dir=tmp_path)
+    assert scn.params.thickness == 1.0
+
+
 def test_polygon_outside_the_dem_is_named(tmp_path):
     g = gpd.GeoDataFrame(
         {"thickness": [1.0]}, geometry=[shapely.box(0, 0, 50, 50)], crs="EPSG:31287"

@@ -638,6 +638,9 @@ def test_a_domain_the_slidable_terrain_overruns_is_said_before_the_run():
         sliding_region(bowl, 27.0, (50.0, 10.0), 0.25)
     with pytest.raises(ValueError, match="dx = 0"):
         sliding_region(bowl, 27.0, setup.start, 0.0)
+    for phi in (float("nan"), -1.0, 90.0, "steep"):
+        with pytest.raises(ValueError, match="friction_deg = .*must be an angle in \\[0, 90\\)"):
+            sliding_region(bowl, phi, setup.start, 0.25)
     # a float mask's NaN (no data) is no snow
     assert not sliding_region(
         bowl, 27.0, setup.start, 0.25, cover=np.full(bowl.shape, np.nan)
@@ -786,3 +789,20 @@ def test_summary_crack_speeds_leave_out_speeds_no_front_reaches():
     # a front that runs throughout keeps its speeds
     m1, p1 = _front_speed(coord, coord / 50.0, 0.0, 40.0, limit=limit)
     assert m1 == pytest.approx(50.0) and p1 == pytest.approx(50.0)
+
+
+def test_the_resolution_warning_is_at_the_thinnest_slab():
+    """dx = 0.1 m resolves Lambda/5 of the 0.5 m slab (0.132 m), not of the 0.258 m one
+    a 45 deg slope's correction leaves (0.095 m): the warning names the thinner slab."""
+    import tomllib
+
+    doc = tomllib.loads(scenario.resolve("slope-quick").read_text())
+    doc["params"]["slope_deg"] = 45.0
+    for snow, said in (({"kind": "uniform"}, False), ({"kind": "slope_corrected"}, True)):
+        doc["snow"] = snow
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scenario.parse(doc)
+        lines = [str(w.message) for w in caught if "Lambda/5" in str(w.message)]
+        assert bool(lines) == said, lines
+    assert "Lambda/5 = 0.0952 m at the thinnest slab, 0.258 m:" in lines[0]

@@ -8,6 +8,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import time
 import warnings
 from collections.abc import Callable
@@ -42,7 +43,7 @@ from damjax.ensemble.products import (
 from damjax.ensemble.spec import Ensemble, _is_int, key_of, member_draws, member_scenario
 from damjax.scenario import prepared
 from damjax.scenario.slope_fields import resolve_inputs, simulate
-from damjax.slope.simulation import steepest_covered
+from damjax.slope.simulation import SlopeRunWarning, steepest_covered
 from damjax.validation import ensure_x64
 
 PLAN_FILE = "plan.json"
@@ -406,6 +407,7 @@ def _run_locked(
         )
     run_time = 0.0
     run_members = 0
+    member_warnings: list[tuple[int, str]] = []
     for a, b in mine:
         idx = list(range(a, b))
         models, states, scns = _build_members(ens, idx, layout)
@@ -422,11 +424,13 @@ def _run_locked(
         run_members += len(idx)
         final_h = jax.tree.map(np.asarray, final)
         results = []
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            for j in range(len(idx)):
-                take = lambda x, j=j: jnp.asarray(x[j])  # noqa: E731
+        for j in range(len(idx)):
+            take = lambda x, j=j: jnp.asarray(x[j])  # noqa: E731
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("ignore", UserWarning)
+                warnings.simplefilter("always", SlopeRunWarning)
                 results.append(_finish_member(scns[j], jax.tree.map(take, final_h), layout))
+            member_warnings += [(idx[j], str(w.message)) for w in caught]
         ds = slice_dataset(ens, idx, results)
         io.write_dataset(slices_dir / slice_name(a, b), ds)
         say(f"members {a}-{b - 1} done ({time.perf_counter() - t0:.1f} s)")
@@ -434,6 +438,7 @@ def _run_locked(
             on_slice(a, b)
     if bar is not None:
         bar.close()
+    _warn_grouped(member_warnings)
     distributed.barrier("damjax-ensemble-done")
     summary = None
     if proc == 0:
@@ -465,6 +470,24 @@ def _run_locked(
     if summary is not None:
         ds.attrs["run_summary"] = json.dumps(summary)
     return ds
+
+
+def _warn_grouped(member_warnings: list[tuple[int, str]]) -> None:
+    """One `SlopeRunWarning` per kind of the members' warnings (their text with the
+    numbers left out), naming the members and giving the first member's text: an
+    ensemble of 16 says "bounded by the domain" once, not 16 times."""
+    groups: dict[str, list[tuple[int, str]]] = {}
+    for i, text in member_warnings:
+        groups.setdefault(re.sub(r"-?\d+(\.\d+)?(e[-+]?\d+)?", "#", text), []).append((i, text))
+    for rows in groups.values():
+        members = sorted({i for i, _ in rows})
+        named = ", ".join(map(str, members[:8])) + (", ..." if len(members) > 8 else "")
+        warnings.warn(
+            f"{len(members)} member{'s' if len(members) > 1 else ''} ({named}); member "
+            f"{rows[0][0]}: {rows[0][1]}",
+            SlopeRunWarning,
+            stacklevel=3,
+        )
 
 
 def _mib(b: int | None) -> str:

@@ -378,6 +378,17 @@ def _member_problems(ens: Ensemble) -> list[str]:
             f"ensemble.seeds: {len(ens.seeds)} seeds for {ens.members} members (give one per "
             "member, or leave seeds out: strength.seed + member)"
         )
+    elif ens.seeds is not None:
+        first: dict[int, int] = {}
+        for i, seed in enumerate(ens.seeds[: ens.members]):
+            if seed in first:  # the same strength field and trigger: a member counted twice
+                out.append(
+                    f"ensemble.seeds: members {first[seed]} and {i} share seed {seed}: their "
+                    "strength fields and triggers would be the same (give each member its "
+                    "own seed)"
+                )
+                break
+            first[seed] = i
     if out or not (ens.params or ens.strength):
         return out
     for i in range(ens.members):

@@ -645,18 +645,29 @@ def _lines(
 
 
 def warn_resolution(scn: Any) -> None:
-    """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5, with how to
-    check it (half the dx, the same random field). A weak layer that fails under its own
-    slab is the loader's (`natural_release_problem`)."""
-    lam = float(theory.elastic_length(scn.params))
+    """UserWarning (as `damjax.pst.prepare` notes for PSTs) when dx > Lambda/5 (at the
+    thinnest slab of a snow cover), with how to check it (half the dx, the same random
+    field). A weak layer that fails under its own slab is the loader's
+    (`natural_release_problem`)."""
+    params, where = scn.params, ""
+    prep = scn._prepared
+    if prep is not None and prep.thickness is not None:  # a snow cover: at its thinnest slab
+        h = np.asarray(prep.thickness, dtype=float)
+        if prep.cover is not None and h.ndim == 2:
+            h = h[np.asarray(prep.cover, bool)]
+        if h.size and float(np.min(h)) < params.thickness:
+            params = dataclasses.replace(params, thickness=float(np.min(h)))
+            where = f" at the thinnest slab, {params.thickness:.3g} m"
+    lam = float(theory.elastic_length(params))
     if scn.setup.dx > lam / 5:
         # the shipped slopes run at dx 0.2 m (Lambda/5 = 0.133 m): the guide's "Grid
         # resolution" section gives what halving dx changed for them
         grf = (scn.strength or {}).get("kind") == "grf"
         same = f" and strength.field_dx = {scn.setup.dx:g}, the same field," if grf else ""
         warnings.warn(
-            f"dx = {scn.setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m: the crack-tip "
-            "stress concentration is under-resolved; results may depend on dx (check with "
+            f"dx = {scn.setup.dx} m is larger than Lambda/5 = {lam / 5:.3g} m{where}: the "
+            "crack-tip stress concentration is under-resolved; results may depend on dx "
+            "(check with "
             f"dx = {scn.setup.dx / 2:g} m{same} as the docs' Slopes page did for the "
             "shipped slopes)",
             stacklevel=3,

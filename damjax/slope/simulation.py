@@ -539,6 +539,14 @@ def sliding_region(
         )
     if not (dx > 0 and math.isfinite(dx)):
         raise ValueError(f"sliding_region: dx = {dx}; must be a finite number > 0 m")
+    try:
+        phi = float(friction_deg)
+    except (TypeError, ValueError):
+        phi = math.nan
+    if not 0 <= phi < 90:  # NaN too: it would compare False everywhere, an empty region
+        raise ValueError(
+            f"sliding_region: friction_deg = {friction_deg!r}; must be an angle in [0, 90) deg"
+        )
     size = (psi.shape[0] * dx, psi.shape[1] * dx)
     try:
         x0, y0 = (float(c) for c in start)
@@ -549,7 +557,7 @@ def sliding_region(
             f"sliding_region: start = ({x0:g}, {y0:g}) m; must lie in [0, {size[0]:g}] x "
             f"[0, {size[1]:g}] m, the map"
         )
-    ok = np.isfinite(psi) & (psi > float(friction_deg))
+    ok = np.isfinite(psi) & (psi > phi)
     for name, mask in (("cover", cover), ("domain", domain)):
         m = _cell_mask("sliding_region", name, mask, psi.shape)
         if m is not None:
