@@ -85,8 +85,55 @@ ARREST_MARGIN = 2.0  # [m] below the upper end
 YIELD_STRAIN = 1e-6
 
 
+def _pair(fn: str, names: tuple[str, str], first: Any, second: Any) -> list[np.ndarray]:
+    """``first`` and ``second`` as finite 1-D float arrays of one length, the first
+    increasing where it is ``time``: ValueError (TypeError for what is no array of
+    numbers) naming ``fn`` and the argument otherwise."""
+    out = []
+    for arg, value in zip(names, (first, second), strict=True):
+        try:
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"{fn}: {arg} must be a 1-D array of numbers (e.g. a PSTResult's .{arg}), "
+                f"got {type(value).__name__}"
+            ) from None
+        if a.ndim != 1:
+            raise ValueError(f"{fn}: {arg} has shape {a.shape}; must be 1-D")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{fn}: {arg} holds NaN or inf; must be finite")
+        out.append(a)
+    if out[0].size != out[1].size:
+        raise ValueError(
+            f"{fn}: {names[0]} has {out[0].size} values and {names[1]} {out[1].size}; "
+            "must be as many"
+        )
+    if names[0] == "time" and not np.all(np.diff(out[0]) > 0):
+        raise ValueError(f"{fn}: time must increase from one value to the next [s]")
+    return out
+
+
+def _positive(fn: str, name: str, value: Any, unit: str) -> float:
+    """``value`` as a finite float > 0, else ValueError naming ``fn`` and ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (v > 0 and math.isfinite(v)):
+        raise ValueError(f"{fn}: {name} = {value!r}; must be a finite number > 0 {unit}")
+    return v
+
+
 def crack_speed(time: np.ndarray, tip: np.ndarray, window: float = SPEED_WINDOW) -> np.ndarray:
-    """Crack speed [m/s] at each time, central difference over ``window`` seconds."""
+    """Crack speed [m/s] at each time, central difference over ``window`` seconds.
+
+    Args:
+        time: (n,) increasing times [s], evenly spaced (a run's history).
+        tip: (n,) crack-tip positions [m] at those times.
+        window: the difference's width [s], > 0 (shortened, one-sided, at the ends).
+    """
+    time, tip = _pair("crack_speed", ("time", "tip"), time, tip)
+    window = _positive("crack_speed", "window", window, "s")
     if time.size < 3:
         return np.zeros_like(tip)
     dt = float(time[1] - time[0])
@@ -101,7 +148,12 @@ def crack_speed(time: np.ndarray, tip: np.ndarray, window: float = SPEED_WINDOW)
 def arrest(
     time: np.ndarray, tip: np.ndarray, length: float, dx: float
 ) -> tuple[bool, float, float]:
-    """(arrested, arrest position L_ca [m] or nan, time the tip stopped [s])."""
+    """(arrested, arrest position L_ca [m] or nan, time the tip stopped [s]) of a tip
+    history: ``time`` (n,) [s] and ``tip`` (n,) [m] of a strip ``length`` [m] on cells of
+    ``dx`` [m] (the tip counts as stopped within one cell of its final value)."""
+    time, tip = _pair("arrest", ("time", "tip"), time, tip)
+    length = _positive("arrest", "length", length, "m")
+    dx = _positive("arrest", "dx", dx, "m")
     if tip.size == 0:
         return False, math.nan, math.nan
     final = float(tip[-1])
@@ -112,7 +164,11 @@ def arrest(
 
 
 def tension_gradient(x: np.ndarray, sigma_xx: np.ndarray, cut: float) -> float:
-    """Least-squares slope of sigma_xx(x) over [0.3, 0.8] x cut [Pa/m]."""
+    """Least-squares slope of sigma_xx(x) over [0.3, 0.8] x cut [Pa/m]: ``x`` (n,) the
+    particles' positions [m], ``sigma_xx`` (n,) their slab tension [Pa], ``cut`` [m] > 0
+    the saw's cut. NaN where fewer than three particles lie in the window."""
+    x, sigma_xx = _pair("tension_gradient", ("x", "sigma_xx"), x, sigma_xx)
+    cut = _positive("tension_gradient", "cut", cut, "m")
     sel = (x >= 0.3 * cut) & (x <= 0.8 * cut)
     if sel.sum() < 3:
         return math.nan

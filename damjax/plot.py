@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from damjax import diagnostics, theory
+from damjax import diagnostics, io, theory
 
 
 def _plt() -> Any:
@@ -33,12 +35,15 @@ def _plt() -> Any:
 def plot_pst(result: Any, path: str | None = None) -> Any:
     """Three panels: weak-layer strength, slab tension profile, crack speed over x.
 
-    Returns the matplotlib Figure; writes it to ``path`` when given.
+    Returns the matplotlib Figure; writes it to ``path`` when given (its format from the
+    suffix, checked before drawing).
     """
-    if not isinstance(result.tip, np.ndarray):
-        from damjax.pst import one_run_only
+    from damjax.pst import PSTResult, one_run_only
 
+    _expect("plot_pst", result, PSTResult, "damjax.runner.load_result(RUN_DIR or FILE)")
+    if not isinstance(result.tip, np.ndarray):
         raise TypeError(one_run_only("plot_pst"))
+    _check_path("plot_pst", path)
     plt = _plt()
     p, s = result.params, result.setup
     cs = float(theory.shear_wave_speed(p))
@@ -117,6 +122,34 @@ def plot_pst(result: Any, path: str | None = None) -> Any:
     return fig
 
 
+def _expect(fn: str, result: Any, cls: type, read: str) -> None:
+    """TypeError unless ``result`` is a ``cls``: a Dataset read from a file is named with
+    the function ``read`` that rebuilds the result from its folder or file."""
+    if isinstance(result, cls):
+        return
+    kind = type(result).__name__
+    hint = ""
+    if kind == "Dataset":
+        hint = f" (a Dataset read from a results file: rebuild the result with {read})"
+    raise TypeError(f"{fn} takes a damjax.{cls.__name__}, got {kind}{hint}")
+
+
+def _check_path(fn: str, path: Any, gif: bool = False) -> None:
+    """The output path checked before drawing (`damjax.io.check_figure_path`; ``gif``: an
+    animation's .gif) and its folder made."""
+    if path is None or path == "":
+        return
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"{fn}: path must be a file name (str or Path), got {type(path).__name__}")
+    if gif:
+        if not str(path).lower().endswith(".gif"):
+            raise ValueError(f"{fn}: path {path}: must end in .gif (an animated GIF)")
+        io.check_figure_path(str(path)[:-4] + ".png", field=f"{fn}: path")  # its folder
+    else:
+        io.check_figure_path(path, field=f"{fn}: path")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+
+
 def plot_slope(result: Any, path: str | None = None) -> Any:
     """Maps of a slope-scale release: column height with the crown (h < 0.98 h0, blue)
     and the stauchwall (h > 1.02 h0, red), crack arrival time [s], local crack speed
@@ -124,6 +157,10 @@ def plot_slope(result: Any, path: str | None = None) -> Any:
     slab's wave speed, the most a front can run, and cells that failed together, which
     have no front speed, are cyan), weak-layer strength [Pa]. The title says what the
     fronts did (`slope_outcome`)."""
+    from damjax.slope.simulation import SlopeResult
+
+    _expect("plot_slope", result, SlopeResult, "damjax.slope.results.load_result(FILE)")
+    _check_path("plot_slope", path)
     plt = _plt()
     from matplotlib.colors import ListedColormap
 
@@ -241,6 +278,14 @@ def slope_outcome(summary: dict[str, Any]) -> str:
     end (at what speed). Summaries of older versions (without the front states) get the
     up-slope front only."""
     s = summary
+    if not isinstance(s, dict):
+        kind = type(s).__name__
+        raise TypeError(f"slope_outcome takes a slope run's summary (a dict), got {kind}")
+    if not {"upslope_front", "arrested_before_top", "upslope_extent_m"} & set(s):
+        raise ValueError(
+            "slope_outcome: not a slope run's summary (none of upslope_front, "
+            "arrested_before_top, upslope_extent_m: a SlopeResult's .summary)"
+        )
 
     def dist(key: str) -> str:
         v = s.get(key)
@@ -282,6 +327,12 @@ def slope_outcome(summary: dict[str, Any]) -> str:
 
 def animate_slope(result: Any, path: str, fps: int = 8) -> None:
     """GIF of the release: released weak layer (grey) and column height anomalies."""
+    from damjax.slope.simulation import SlopeResult
+
+    _expect("animate_slope", result, SlopeResult, "damjax.slope.results.load_result(FILE)")
+    if not result.snapshots:
+        raise ValueError("animate_slope: the result has no snapshots (a run without them)")
+    _check_path("animate_slope", path, gif=True)
     plt = _plt()
     from matplotlib.animation import FuncAnimation, PillowWriter
 

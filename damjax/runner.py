@@ -629,10 +629,13 @@ def _run_slope(
 
 
 def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
-    """The scenario and a `PSTResult` rebuilt from ``results.nc`` alone."""
+    """The scenario and the result rebuilt from a run folder's ``results.nc`` alone (or
+    from such a file, or one of `PSTResult.to_netcdf`, given itself): a `PSTResult`, or
+    for a slope run a `damjax.slope.simulation.SlopeResult`
+    (`damjax.slope.results.load_result`; its scenario read again with its files)."""
     from damjax.pst import PSTResult
 
-    path = Path(out_dir) / RESULTS
+    path = Path(out_dir) if Path(out_dir).is_file() else Path(out_dir) / RESULTS
     if not path.is_file():
         if (Path(out_dir) / CHECKPOINT).is_file():
             raise ValueError(
@@ -653,9 +656,16 @@ def load_result(out_dir: str | os.PathLike[str]) -> tuple[Scenario, Any]:
     try:
         scn = scenario.loads(ds.attrs["scenario"], warn=False)
     except ValueError as exc:
+        alone = ""
+        if 'type = "slope"' in str(ds.attrs["scenario"]):  # its files moved, say
+            alone = f"; the slope result alone: damjax.slope.results.load_result({str(path)!r})"
         raise ValueError(
-            f"{path}: its 'scenario' attribute is not a valid scenario ({exc})"
+            f"{path}: its 'scenario' attribute is not a valid scenario ({exc}){alone}"
         ) from None
+    if scn.type == "slope":
+        from damjax.slope import results as slope_results
+
+        return scn, slope_results.load_result(path)
     try:
         summary = json.loads(ds.attrs["summary"])
     except ValueError as exc:

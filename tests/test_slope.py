@@ -331,6 +331,11 @@ def test_slope_quick_runs_through_the_cli(tmp_path, capsys):
     shown = json.loads(capsys.readouterr().out)
     assert shown["release_area_m2"] == summary["release_area_m2"]
     assert (out / "slope.png").is_file()
+    from damjax import runner
+
+    scn, result = runner.load_result(out)  # a slope folder gives its slope result
+    assert scn.name == "slope-quick" and type(result).__name__ == "SlopeResult"
+    assert result.summary["release_area_m2"] == summary["release_area_m2"]
 
 
 BAD = [

@@ -100,13 +100,21 @@ def read_setup_params(text: str) -> tuple[Any, PSTParams]:
     """SlopeSetup and PSTParams of a stored (already validated) slope scenario's TOML,
     without re-reading its files (for `damjax show`)."""
     data = tomllib.loads(text)
-    sfields = {f.name for f in dataclasses.fields(SlopeSetup)}
-    sv = {k: v for k, v in data.get("setup", {}).items() if k in sfields}
+    sv = {k: v for k, v in data.get("setup", {}).items() if k in _setup_fields()}
     if "start" in sv:
         sv["start"] = tuple(sv["start"])
     pfields = {f.name for f in dataclasses.fields(PSTParams)}
     pv = {k: v for k, v in data.get("params", {}).items() if k in pfields}
     return SlopeSetup(**sv), PSTParams(**pv)
+
+
+def _setup_fields() -> set[str]:
+    return {f.name for f in dataclasses.fields(SlopeSetup)}
+
+
+def _leaf(v: Any) -> Any:
+    """A stored parameter: a number, or an array (a profile) as numpy."""
+    return np.asarray(v, dtype=float) if isinstance(v, list) else v
 
 
 def result_dataset(result: Any, snapshots: bool = True) -> Any:
@@ -145,13 +153,28 @@ def result_dataset(result: Any, snapshots: bool = True) -> Any:
 
 
 def load_result(path: str | Path) -> Any:
-    """A `SlopeResult` rebuilt from a slope run's ``results.nc`` (ValueError if the file
-    is not a slope result)."""
+    """A `SlopeResult` rebuilt from a slope run's ``results.nc``, or from a file of
+    `SlopeResult.to_netcdf` or `SlopeResult.to_dataset` (ValueError if the file is not
+    a slope result)."""
     ds = io.open_dataset(path)
     text = ds.attrs.get("scenario", "")
-    if "arrival_time" not in ds or 'type = "slope"' not in text:
-        raise ValueError(f"{path}: not a slope result")
-    setup, params = read_setup_params(text)
+    if "arrival_time" in ds and 'type = "slope"' in text:
+        setup, params = read_setup_params(text)
+    elif "arrival_time" in ds and {"setup", "params"} <= set(ds.attrs):  # to_dataset's
+        sv = json.loads(ds.attrs["setup"])
+        if sv.get("start") is not None:
+            sv["start"] = tuple(sv["start"])
+        pv = json.loads(ds.attrs["params"])
+        known = {f.name for f in dataclasses.fields(PSTParams)}
+        setup = SlopeSetup(**{k: v for k, v in sv.items() if k in _setup_fields()})
+        params = PSTParams(
+            **{k: (None if v is None else _leaf(v)) for k, v in pv.items() if k in known}
+        )
+    else:
+        raise ValueError(
+            f"{path}: not a slope result (no arrival_time map, or neither a slope scenario "
+            "nor the setup and params of SlopeResult.to_dataset in its attributes)"
+        )
     summary = json.loads(ds.attrs.get("summary", "{}"))
     start = summary.get("start_m")
     if start is not None:

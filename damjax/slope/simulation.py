@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import warnings
 from typing import Any
 
@@ -27,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax import theory
+from damjax import io, theory
 from damjax._tracing import concrete_members, concrete_value, eager_if_concrete, is_traced
 from damjax._version import __version__
 from damjax.constants import G_ACC
@@ -138,7 +139,10 @@ class SlopeResult:
     def to_dataset(self) -> Any:
         """xarray Dataset of the maps and snapshots, CF-style units and long names.
         `damjax.slope.results.result_dataset` adds what a run's ``results.nc`` holds
-        besides: the crack-speed map and the released / crown / stauchwall masks."""
+        besides: the crack-speed map and the released / crown / stauchwall masks.
+        Global attributes: ``setup`` and ``params`` (JSON; ``slope_deg`` and
+        ``tau_peak`` are those of the maps where these hold one value, else the
+        parameters' own), ``summary`` (JSON, without the timings) and the version."""
         import json
 
         import xarray as xr
@@ -208,11 +212,44 @@ class SlopeResult:
                     )
                     for f in dataclasses.fields(self.params)
                 }
+                # a uniform slope or strength given as a map or argument is what ran
+                | _uniform_maps(self)
             ),
-            "summary": json.dumps(self.summary),
+            "summary": json.dumps(
+                {k: v for k, v in self.summary.items() if k not in io.TIMING_KEYS}
+            ),
             "Conventions": "CF-1.10",
         }
         return ds
+
+    def to_netcdf(self, path: str | os.PathLike[str]) -> None:
+        """Write `to_dataset` to ``path`` (atomically: a temporary file, then a rename).
+        `damjax.slope.results.load_result` reads it back; a run's ``results.nc`` also
+        holds the crack-speed map and the crown, stauchwall and released masks
+        (`damjax.slope.results.result_dataset`)."""
+        if is_traced(self.height) or not isinstance(self.height, np.ndarray):
+            raise TypeError(
+                "SlopeResult.to_netcdf: a result of one concrete run only (not from "
+                "inside jax.grad / jax.jit / jax.vmap)"
+            )
+        io.write_dataset(path, self.to_dataset())
+
+
+def _uniform_maps(result: SlopeResult) -> dict[str, float]:
+    """``slope_deg`` and ``tau_peak`` of a result whose maps hold one value on the
+    snow-covered cells: the value that ran, not the parameters' default."""
+    out = {}
+    snow = None if result.snow is None else np.asarray(result.snow, bool)
+    for name, grid in (("slope_deg", result.slope_deg), ("tau_peak", result.tau_peak)):
+        v = np.asarray(grid, dtype=float)
+        if snow is not None and snow.shape == v.shape:
+            v = v[snow]
+        v = v[np.isfinite(v)]
+        # one value up to float32 round-off (a plane's map is computed, 38.000004 for 38):
+        # 6 significant digits of it
+        if v.size and np.ptp(v) <= 1e-6 * np.max(np.abs(v)):
+            out[name] = float(f"{np.mean(v):.6g}")
+    return out
 
 
 jax.tree_util.register_dataclass(
