@@ -4,6 +4,7 @@
     python -m benchmarks pst_f32 mpm88   # some cases, one JSON row per line on stdout
     python -m benchmarks sweep256 slope_large --dry-run  # toy sizes of these cases
     python -m benchmarks gpu [--dry-run] # a command with options of its own (-h for them)
+    python -m benchmarks mpm88 --n 4096  # a case with options of its own (mpm88, ensemble16)
 
 Nothing runs unless named. The verification scripts, which feed the documentation's
 verification pages and figures, are in verification/ (``python -m verification``).
@@ -25,6 +26,9 @@ COMMANDS = {
     "cli_startup": "benchmarks.cli_startup",
     "slab_fracture_timing": "benchmarks.slab_fracture_timing",
 }
+# cases that take options of their own: ``python -m benchmarks mpm88 --n 4096`` (or -h)
+# runs the module with them
+CASE_OPTIONS = {"mpm88": "benchmarks.mpm88", "ensemble16": "benchmarks.ensemble16"}
 # cases with toy sizes under --dry-run (they read DAMJAX_BENCH_DRY_RUN); the others would
 # run at full size, so --dry-run refuses them
 DRY_RUN_CASES = ("sweep256", "slope_large", "real_path_member")
@@ -50,6 +54,9 @@ def listing() -> str:
 def main(argv: list[str]) -> int:
     if argv and argv[0] in COMMANDS:
         return subprocess.run([sys.executable, "-m", COMMANDS[argv[0]], *argv[1:]]).returncode
+    if argv and argv[0] in CASE_OPTIONS and any(a.startswith("-") for a in argv[1:]):
+        module = CASE_OPTIONS[argv[0]]
+        return subprocess.run([sys.executable, "-m", module, *argv[1:]]).returncode
     if "-h" in argv or "--help" in argv:
         print((__doc__ or "").strip() + "\n")
     if not argv or {"--list", "-h", "--help"} & set(argv):
@@ -59,7 +66,13 @@ def main(argv: list[str]) -> int:
     if "--dry-run" in argv:  # toy sizes, for cases that read DAMJAX_BENCH_DRY_RUN
         argv = [a for a in argv if a != "--dry-run"]
         env = {**os.environ, "DAMJAX_BENCH_DRY_RUN": "1"}
-    names = argv or list(DRY_RUN_CASES)
+    if not argv:  # nothing runs unless named
+        sys.stderr.write(
+            f"--dry-run: name the cases to run at toy size (of {list(DRY_RUN_CASES)}), e.g. "
+            "python -m benchmarks sweep256 --dry-run\n"
+        )
+        return 2
+    names = argv
     unknown = [n for n in names if n not in CASES]
     if unknown:
         sys.stderr.write(f"unknown case(s) {unknown}; choose from {list(CASES)}\n")

@@ -89,14 +89,22 @@ def worktree(commit: str, prefix: str = "damjax-alternate-") -> Iterator[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    from benchmarks.cases import CASES, at_least
+
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks alternate", description=__doc__.splitlines()[0]
+    )
     ap.add_argument("--old", required=True, help="the commit to compare with (any git revision)")
     ap.add_argument("--cases", nargs="+", default=["pst_f32"], help="benchmark cases")
-    ap.add_argument("--rounds", type=int, default=3, help="alternations (>= 1)")
+    ap.add_argument("--rounds", type=at_least(int, 1), default=3, help="alternations (>= 1)")
     args = ap.parse_args(argv)
-    if args.rounds < 1:
-        ap.error(f"--rounds {args.rounds}: must be >= 1")
-    old = _short(args.old, ROOT)
+    unknown = [c for c in args.cases if c not in CASES]
+    if unknown:
+        ap.error(f"--cases: unknown case(s) {unknown}; choose from {list(CASES)}")
+    try:
+        old = _short(args.old, ROOT)
+    except subprocess.CalledProcessError:
+        ap.error(f"--old {args.old}: not a revision of this repository (git rev-parse)")
     new = _short("HEAD", ROOT)
     dirty = bool(
         subprocess.run(

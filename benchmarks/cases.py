@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import functools
 import json
+import math
 import os
 import resource
 import subprocess
@@ -12,6 +14,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -58,6 +61,24 @@ def stamp() -> dict:
         pass
     machine = f"{os.cpu_count()}-core {model}".strip()
     return dict(date=datetime.date.today().isoformat(), commit=git_commit(), machine=machine)
+
+
+def at_least(kind: type, low: float, strict: bool = False) -> Callable[[str], Any]:
+    """An argparse type: a ``kind`` (int or float) >= ``low`` (> with ``strict``), finite;
+    argparse prints one usage line naming the option otherwise."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: not {'an integer' if kind is int else 'a number'}"
+            ) from None
+        if not math.isfinite(value) or not (value > low if strict else value >= low):
+            raise argparse.ArgumentTypeError(f"{text}: must be {'>' if strict else '>='} {low:g}")
+        return value
+
+    return parse
 
 
 def emit(**row: object) -> None:
@@ -376,7 +397,7 @@ def real_path_member() -> None:
     from damjax.slope.generic import GenericSlopeCase
     from verification import real_path
 
-    dry = os.environ.get("DAMJAX_BENCH_DRY_RUN") == "1"
+    dry = os.environ.get("DAMJAX_BENCH_DRY_RUN", "") not in ("", "0")
     path = os.environ.get("DAMJAX_REAL_PATH", "avaAlr")
     if dry:
         scn = real_path.toy_scenario(path, Path(tempfile.mkdtemp(prefix="toy-path-")))

@@ -62,7 +62,9 @@ def _timed(cmd: list[str], env: dict[str, str]) -> tuple[float, subprocess.Compl
 
 
 def _emit(**row: Any) -> None:
-    print(json.dumps(row), flush=True)
+    from benchmarks.cases import emit
+
+    emit(**row)
 
 
 def _run_damjax(
@@ -95,12 +97,23 @@ def _run_damjax(
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.cli_startup", description=__doc__)
-    ap.add_argument("--rounds", type=int, default=5, help="warm rounds (default 5)")
+    from benchmarks.cases import at_least
+
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks cli_startup",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--rounds", type=at_least(int, 1), default=5, help="warm rounds (default 5)")
     ap.add_argument("--scenario", default="quick", help="scenario to run (default quick)")
     args = ap.parse_args(argv)
-    if args.rounds < 1:
-        ap.error(f"--rounds {args.rounds}: must be >= 1")
+    from damjax import scenario
+
+    if args.scenario not in scenario.shipped() and not Path(args.scenario).is_file():
+        ap.error(
+            f"--scenario {args.scenario}: no shipped scenario or file of that name "
+            f"(shipped: {', '.join(scenario.shipped())})"
+        )
 
     tmp = Path(tempfile.mkdtemp(prefix="damjax-startup-"))
     env = dict(os.environ, DAMJAX_CACHE_DIR=str(tmp / "cache"), PYTHONUNBUFFERED="1")

@@ -1003,6 +1003,13 @@ def prepare(folder: Path, commit: str | None = None, python_version: str = "3.12
     return 0
 
 
+def _at_least_one(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    from benchmarks.cases import at_least
+
+    return at_least(int, 1)(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks gpu", description=__doc__.split("\n")[0])
     p.add_argument("--dry-run", action="store_true", help="every part at toy size (CI)")
@@ -1027,7 +1034,7 @@ def main(argv: list[str] | None = None) -> int:
         help="seconds for all parts (default 480; --dry-run 300); parts beyond it are "
         "reported as not run",
     )
-    p.add_argument("--workers", type=int, default=None, help="pytest-xdist workers")
+    p.add_argument("--workers", type=_at_least_one, default=None, help="pytest-xdist workers")
     p.add_argument(
         "--log",
         metavar="DIR",
@@ -1036,7 +1043,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument(
         "--jobs",
-        type=int,
+        type=_at_least_one,
         default=None,
         help="parts run at once (default 1; --dry-run: 2). Timings of parts that ran "
         "side by side are not figures",

@@ -734,17 +734,26 @@ def run_rows(rounds: int = 4, cases: tuple[str, ...] = ("pst_f32", "slope")) -> 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m benchmarks.mpm88", description=__doc__.split("\n")[0]
+        prog="python -m benchmarks mpm88", description=__doc__.split("\n")[0]
     )
-    ap.add_argument("--n", type=int, nargs="*", help="particle counts (random layout)")
+    from benchmarks.cases import at_least, emit
+
+    ap.add_argument("--n", type=at_least(int, 1), nargs="*", help="particle counts (random layout)")
     ap.add_argument("--lattice", action="store_true", help="the 2 x 2 particles per cell row")
-    ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument(
+        "--repeats",
+        type=at_least(int, 1),
+        default=None,
+        help="timed repeats (default 5, 3 above 32768)",
+    )
     ap.add_argument("--no-peer", action="store_true", help="skip Taichi")
     ap.add_argument("--step", action="store_true", help="damjax's own time step, fixed vs float")
     ap.add_argument(
         "--runs", action="store_true", help="whole pst_f32 and slope runs, fixed vs float"
     )
-    ap.add_argument("--rounds", type=int, default=None, help="rounds of --step / --runs")
+    ap.add_argument(
+        "--rounds", type=at_least(int, 1), default=None, help="rounds of --step / --runs"
+    )
     ap.add_argument("--cases", nargs="*", default=None, help="--step / --runs: pst and/or slope")
     args = ap.parse_args(argv)
     if args.step or args.runs:
@@ -753,16 +762,14 @@ def main(argv: list[str] | None = None) -> int:
         runs = tuple("pst_f32" if c == "pst" else c for c in names)
         rows += run_rows(rounds=args.rounds or 4, cases=runs) if args.runs else []
         for row in rows:
-            print(json.dumps(row), flush=True)
+            emit(**row)
         return 0
     ti = None if args.no_peer else taichi_init(n_threads())
     rows = [(n, args.repeats or (5 if n <= 32768 else 3), "random") for n in (args.n or [])]
     if args.lattice:
         rows.append((4 * LATTICE[1] ** 2, args.repeats or 5, "lattice"))
     for n, repeats, layout in rows or CASE_ROWS:
-        print(
-            json.dumps(run_case(n, n_steps=100, repeats=repeats, ti=ti, layout=layout)), flush=True
-        )
+        emit(**run_case(n, n_steps=100, repeats=repeats, ti=ti, layout=layout))
     return 0
 
 

@@ -21,13 +21,13 @@ theta 150 took 23.0 s at commit 3b19f82.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from benchmarks.cases import at_least, emit
 from damjax import PSTParams, PSTSetup
 from damjax.core.loop import integrate
 from damjax.core.model import build, make_layout
@@ -38,10 +38,21 @@ BASE = "paper without lattice"
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--steps", type=int, default=400)
-    ap.add_argument("--dx", type=float, default=0.02)
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks slab_fracture_timing", description=__doc__.splitlines()[0]
+    )
+    ap.add_argument(
+        "--repeats", type=at_least(int, 1), default=7, help="interleaved rounds (default 7)"
+    )
+    ap.add_argument(
+        "--steps", type=at_least(int, 1), default=400, help="steps per timed loop (default 400)"
+    )
+    ap.add_argument(
+        "--dx",
+        type=at_least(float, 0.0, strict=True),
+        default=0.02,
+        help="grid spacing [m] (default 0.02; at most Lambda/2 = 0.33 m)",
+    )
     ap.add_argument(
         "--full",
         type=float,
@@ -49,8 +60,12 @@ def main(argv: list[str] | None = None) -> None:
         metavar="THETA",
         help="time whole 3 s runs (the time loop, no compile) at these theta [Pa/m] instead",
     )
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--seed", type=at_least(int, 0), default=0, help="crack-band strength field (--full)"
+    )
     a = ap.parse_args(argv)
+    if a.dx > 0.33:
+        ap.error(f"--dx {a.dx}: must be at most Lambda/2 = 0.33 m (the weak layer's length)")
     if a.full is not None:
         for theta in a.full or [150.0, 30.0]:
             full_runs(theta, a.dx, a.seed, a.repeats)
@@ -71,8 +86,7 @@ def main(argv: list[str] | None = None) -> None:
             jax.block_until_ready(fns[k](states[k]))
             best[k] = min(best[k], (time.perf_counter() - t) / n * 1e3)
     for k, v in best.items():
-        row = {"model": k, "ms_per_step_min": round(v, 4), "ratio": round(v / best[BASE], 3)}
-        print(json.dumps(row), flush=True)
+        emit(model=k, ms_per_step_min=round(v, 4), ratio=round(v / best[BASE], 3), dx=a.dx)
 
 
 def _models(p: PSTParams, dx: float, duration: float, seed: int) -> dict:
@@ -116,7 +130,7 @@ def full_runs(theta: float, dx: float, seed: int, repeats: int) -> None:
             "steps": layout.n_chunks * layout.chunk_steps,
         }
         row |= {"loop_s_min": round(v, 3), "ratio": round(v / best[BASE], 3), **rows.get(k, {})}
-        print(json.dumps(row), flush=True)
+        emit(**row)
 
 
 if __name__ == "__main__":

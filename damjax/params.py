@@ -125,7 +125,7 @@ class Spec:
         cli: whether ``damjax pst`` has the flag ``--NAME`` (dashes for underscores).
         optional: None is allowed and means this (the model's default), else "".
         notes: more on the field (reference pages and ``help()``).
-        pst_only: meaningless on a slope (a PST strength profile).
+        pst_only: meaningless on a slope (a PST's strength or slope profile).
         name: the field's name (set by `specs`).
     """
 
@@ -401,6 +401,7 @@ class PSTParams(eqx.Module):
         optional="slope_deg",
         notes="Gravity's slope-parallel and normal parts (hence the friction cap) follow "
         "the local angle. A differentiable array field.",
+        pst_only=True,
     )
 
 

@@ -84,3 +84,19 @@ def test_result_files_read_back(pst, slope, tmp_path):
     assert back.params.slope_deg == 38.0 and back.setup.start == slope.setup.start
     assert np.array_equal(back.height, slope.height)
     assert np.array_equal(back.arrival_time, slope.arrival_time)
+
+
+def test_a_slope_run_says_which_pst_parameters_it_does_not_use():
+    setup = damjax.SlopeSetup(length=6.0, width=4.0, dx=0.2, duration=0.05, start=(1.0, 2.0))
+    p = damjax.PSTParams(slope_profile=[10.0, 80.0], strength_gradient=100.0)
+    prep = damjax.slope.simulation.prepare(p, setup)
+    lines = [n.text() for n in prep.notes if n.category == "pst_only"]
+    assert lines == [
+        "simulate_slope: strength_gradient, slope_profile not used: a PST's; a slope run's "
+        "strength is tau_peak (a scalar or an (nx, ny) map) and its slope slope_deg"
+    ]
+    assert not [
+        n
+        for n in damjax.slope.simulation.prepare(damjax.PSTParams(), setup).notes
+        if n.category == "pst_only"
+    ]

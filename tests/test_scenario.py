@@ -476,5 +476,7 @@ def test_a_written_slope_scenario_reads_back_without_warnings():
     assert [str(w.message) for w in caught] == []
     assert back.to_toml() == scn.to_toml()
     text = scn.to_toml().replace("steady_length = 20.0", "steady_length = 5.0")
-    with pytest.warns(UserWarning, match="params.steady_length: PST strength profile, ignored"):
+    with pytest.warns(
+        UserWarning, match="params.steady_length: a PST's, ignored by slope scenarios"
+    ):
         scenario.loads(text)

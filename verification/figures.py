@@ -557,7 +557,7 @@ def gis_export() -> str:
 
 
 def main(argv: list[str]) -> int:
-    if "--list" in argv:
+    if {"--list", "-h", "--help"} & set(argv):
         for name, fn in FIGURES.items():
             print(f"{name:18s} {(fn.__doc__ or '').strip().splitlines()[0]}")
         return 0
@@ -579,6 +579,7 @@ def main(argv: list[str]) -> int:
         png = png if png.is_file() else next(OUT.glob(f"{name}*.png"))
         row = dict(
             STAMP,
+            command=f"{COMMAND} {name}",
             figure=name,
             file=f"docs/images/{png.name}",
             what=note,

@@ -515,7 +515,8 @@ def check(
     if ignored:
         notes.append(
             ", ".join(f"params.{k}" for k in ignored)
-            + ": PST strength profile, ignored by slope scenarios (use [strength])"
+            + ": a PST's, ignored by slope scenarios (their strength: [strength]; their "
+            "slope: [terrain])"
         )
     if "start" in svals:
         st = np.asarray(svals["start"], dtype=float)

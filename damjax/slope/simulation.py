@@ -827,6 +827,36 @@ def simulate_slope(
         return run(prep, progress=progress, **resume)
 
 
+def _pst_only_notes(params: PSTParams) -> list[Problem]:
+    """A note naming the parameters a slope run does not use that differ from their
+    defaults (a PST's strength profile, steady length and gradient, its slope profile):
+    the slope and the strength of a slope run are its maps (category "pst_only"; a
+    scenario says it for its own keys)."""
+    from damjax.params import specs
+
+    default = PSTParams()
+    unused = []
+    for name, spec in specs(PSTParams).items():
+        value, base = getattr(params, name), getattr(default, name)
+        if spec.pst_only and not (
+            value is base
+            or (value is not None and base is not None and np.array_equal(value, base))
+        ):
+            unused.append(name)
+    if not unused:
+        return []
+    return [
+        Problem(
+            None,
+            reason=f"simulate_slope: {', '.join(unused)} not used: a PST's; a slope run's "
+            "strength is tau_peak (a scalar or an (nx, ny) map) and its slope slope_deg",
+            form="line",
+            setup=SlopeSetup,
+            category="pst_only",
+        )
+    ]
+
+
 def warn_notes(prep: PreparedSlope, stacklevel: int = 2) -> None:
     """Warn the input's notes of a prepared run (`PreparedSlope.notes`): slope notes as
     `SlopeRunWarning`, the rest (a strength at or below the slab's weight) as
@@ -1012,6 +1042,7 @@ def prepare(
             params, setup, slope_deg, fall_deg, not getattr(source, "area_from_polygon", False)
         )
     ]
+    notes.extend(_pst_only_notes(params))
     if domain is not None and np.ndim(slope_deg) == 2:
         notes.extend(_domain_notes(params, setup, slope_deg, snow["cover"], domain))
     if layout is None:
