@@ -480,3 +480,11 @@ def test_a_written_slope_scenario_reads_back_without_warnings():
         UserWarning, match="params.steady_length: a PST's, ignored by slope scenarios"
     ):
         scenario.loads(text)
+
+
+@pytest.mark.parametrize("key", ["slope_profile", "strength_profile"])
+def test_a_pst_profile_on_a_slope_is_said_not_a_crash(key):
+    scn = scenario.load("slope-quick")
+    with pytest.warns(UserWarning, match=f"params.{key}: a PST's, ignored by slope scenarios"):
+        back = scn.replace(params={key: [10.0, 80.0]})
+    assert back.setup == scn.setup

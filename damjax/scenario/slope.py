@@ -510,7 +510,9 @@ def check(
         _place_release(terrain, base_dir, pvals, pgiven, svals, problems, notes, from_snow)
     # given away from the default: a file written by `Scenario.to_toml` lists every field
     ignored = [
-        k for k in PST_ONLY_PARAMS if k in pgiven and pvals.get(k) != getattr(PSTParams(), k)
+        k
+        for k in PST_ONLY_PARAMS
+        if k in pgiven and not _same(pvals.get(k), getattr(PSTParams(), k))
     ]
     if ignored:
         notes.append(
@@ -643,6 +645,13 @@ def _lines(
             line += ", or give strength.start_window"
         out.append(line)
     return out
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two parameter values are equal (numbers, profiles or None)."""
+    if a is None or b is None:
+        return a is b
+    return bool(np.array_equal(np.asarray(a), np.asarray(b)))
 
 
 def warn_resolution(scn: Any) -> None:
