@@ -488,3 +488,14 @@ def test_a_pst_profile_on_a_slope_is_said_not_a_crash(key):
     with pytest.warns(UserWarning, match=f"params.{key}: a PST's, ignored by slope scenarios"):
         back = scn.replace(params={key: [10.0, 80.0]})
     assert back.setup == scn.setup
+
+
+@pytest.mark.parametrize("name", ["quick", "slope-quick"])
+def test_a_section_that_is_no_table_is_one_line(name):
+    import tomllib
+
+    data = tomllib.loads(scenario.resolve(name).read_text())
+    data["params"] = 3
+    with pytest.raises(ValueError) as exc:
+        scenario.parse(data)
+    assert str(exc.value) == "params = 3: must be a table ([params])"

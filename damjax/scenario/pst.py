@@ -44,6 +44,8 @@ def check(
     pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
     svals, sbad, _ = _check_section("setup", data.get("setup", {}), PSTSetup, problems)
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)
+    if not all(isinstance(data.get(t, {}), dict) for t in ("params", "setup", "output")):
+        return None, []  # a section that is no table: the rest would check its defaults
 
     profile_notes: list[str] = []
     if "profile" in data:

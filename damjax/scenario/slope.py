@@ -476,6 +476,8 @@ def check(
     pvals, pbad, pgiven = _check_section("params", data.get("params", {}), PSTParams, problems)
     svals, sbad, _ = _check_section("setup", setup_table, SlopeSetup, problems)
     ovals, _, _ = _check_section("output", data.get("output", {}), Output, problems)
+    if not all(isinstance(data.get(t, {}), dict) for t in ("params", "setup", "output")):
+        return None, []  # a section that is no table: the rest would check its defaults
     terrain = _check_table(
         "terrain", data.get("terrain", {}), _TERRAIN_KEYS, TERRAIN_KINDS, "plane", {}, problems
     )
