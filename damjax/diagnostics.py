@@ -91,8 +91,10 @@ def _pair(fn: str, names: tuple[str, str], first: Any, second: Any) -> list[np.n
     numbers) naming ``fn`` and the argument otherwise."""
     out = []
     for arg, value in zip(names, (first, second), strict=True):
-        try:
-            a = np.asarray(value, dtype=float)
+        try:  # float32 stays float32: the arrest's comparisons as the run's own
+            a = np.asarray(value)
+            if a.dtype.kind not in "fiu":
+                a = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
             raise TypeError(
                 f"{fn}: {arg} must be a 1-D array of numbers (e.g. a PSTResult's .{arg}), "

@@ -278,6 +278,23 @@ def lambda_problem(dx: float, lam: float, setup: type = PSTSetup) -> Problem | N
     return None
 
 
+def _uniform_failure_stress(params: PSTParams, setup: Any, tau_p: Any) -> np.ndarray:
+    """`damjax.materials.weak_layer.uniform_failure_stress` of strength tau_p [Pa] on the
+    PST's particles (the front width of `damjax.core.state.Model.with_constants`)."""
+    from damjax.materials.weak_layer import uniform_failure_stress
+
+    def a(v: Any) -> np.ndarray:
+        return np.asarray(v, dtype=float)
+
+    k = a(params.wl_shear_modulus) / a(params.wl_thickness)
+    u_r = a(tau_p) / k * (1.0 + a(params.softening))
+    lam = a(theory.elastic_length(params))
+    spacing = setup.dx / int(setup.particles_per_cell)
+    with np.errstate(invalid="ignore"):
+        width = np.where(np.isfinite(u_r), u_r, 1.0) * (spacing / lam)
+    return uniform_failure_stress(a(tau_p), k, u_r, width, xp=np)
+
+
 def param_problems(
     params: PSTParams, setup: PSTSetup | None = None, skip: Iterable[str] = ()
 ) -> list[Problem]:
@@ -304,6 +321,7 @@ def param_problems(
             if profiled
             else np.asarray(params.tau_peak, dtype=float)
         )
+        fails_at = _uniform_failure_stress(params, setup, tau_min)
         if np.any(tau_min <= np.asarray(tau_g)):
             problems.append(
                 Problem(
@@ -312,6 +330,23 @@ def param_problems(
                     f"must exceed the gravitational shear stress tau_g = "
                     f"{float(np.max(tau_g)):.1f} Pa, otherwise the weak layer has already "
                     "failed under the slab's weight",
+                    what="minimum" if profiled else "",
+                )
+            )
+        elif setup.dx <= lam / 2 and np.any(fails_at <= np.asarray(tau_g)):
+            # a brittle layer on coarse particles fails below tau_p under a uniform load
+            need = float(np.max(np.asarray(tau_g) * tau_min / fails_at))
+            spacing = setup.dx / int(setup.particles_per_cell)
+            problems.append(
+                Problem(
+                    "strength_profile" if profiled else "tau_peak",
+                    float(np.min(tau_min)),
+                    f"must exceed {need:.1f} Pa at a particle spacing of {spacing:.3g} m "
+                    f"(tau_g = {float(np.max(tau_g)):.1f} Pa): a weak layer that softens so "
+                    "little starts failing under the slab's uniform weight at tau_p (1 + "
+                    "delta) (1 - spacing / (2 Lambda)), so it would fail everywhere at "
+                    "once (damjax.materials.weak_layer.uniform_failure_stress); a finer "
+                    "${dx}, more ${particles_per_cell} or some ${softening} hold it",
                     what="minimum" if profiled else "",
                 )
             )

@@ -126,7 +126,9 @@ def cli_page() -> str:
             "so it is what `damjax CMD --help` prints for the installed version.",
             "",
             "Exit status: 0 done, 2 bad input (one line per problem), 3 runtime fault "
-            "(results written up to it), 130 interrupted.",
+            "(results written up to it), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM: "
+            "`kill`, a scheduler's time limit); both write a checkpoint where the run "
+            "takes them.",
             "",
             "```text",
             parser.format_help().rstrip(),
@@ -173,6 +175,9 @@ def _dataclass_table(cls: type) -> list[str]:
         spec = specs(cls)[f.name] if cls is not schema.Output else None
         if spec is not None and spec.kind == "choice":
             valid = "one of " + ", ".join(f'`"{c}"`' for c in spec.valid)
+        elif spec is not None and isinstance(spec.valid, tuple) and spec.kind != "bool":
+            # integer choices (dim): "{1, 2}" would be read as attributes by attr_list
+            valid = "one of " + ", ".join(f"`{c}`" for c in spec.valid)
         doc = schema.key_doc(cls, f.name)
         rows.append(f"| `{f.name}` | {_cell(valid)} | {_default(f)} | {_cell(doc)} |")
     return rows

@@ -795,6 +795,9 @@ def test_start_window_with_a_y_range_and_its_errors():
     """[strength] start_window takes [x_min, x_max] or [x_min, x_max, y_min, y_max]."""
     doc = raw("slope-quick")
     doc["setup"].update(length=20.0, width=12.0, dx=0.25)
+    # softening 1 (the paper's slopes): a brittle layer on 0.25 m particles fails under its
+    # own slab below 1.23 tau_g (`uniform_failure_stress`), which this field reaches
+    doc["params"]["softening"] = 1.0
     doc["strength"] = {
         "kind": "grf",
         "std": 100.0,

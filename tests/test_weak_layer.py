@@ -124,3 +124,55 @@ def test_failed_fraction_and_sawn_fraction_limits():
         1.0, 1.0, 1.0, inf, 1e-6, 1e-4
     )
     assert all(np.isfinite(float(v)) for v in gs)
+
+
+# --------------------------------------------------------------------------- uniform load
+
+
+def test_a_uniformly_loaded_brittle_layer_fails_where_its_segments_start_to():
+    """A segment starts failing at a centre slip of u_r - w/2 (the gradient of a crack
+    front across it); under a uniform load that is the stress K (u_r - w/2) =
+    tau_p (1 + delta) (1 - spacing / (2 Lambda)) where below tau_p."""
+    k, spacing, lam = 2e5 / 0.03, 0.025, 0.66
+    for delta, want in ((0.0, 1000.0 * (1 - spacing / (2 * lam))), (1.0, 1000.0)):
+        u_r = 1000.0 / k * (1 + delta)
+        w = wl.front_width(u_r, spacing, lam)
+        got = float(wl.uniform_failure_stress(1000.0, k, u_r, w))
+        assert got == pytest.approx(want, rel=1e-6)  # float32 (jax.numpy)
+    assert float(wl.uniform_failure_stress(jnp.inf, k, jnp.inf, 1.0)) == jnp.inf
+
+
+def test_a_pst_whose_layer_would_fail_by_itself_is_refused_and_one_that_holds_stays():
+    """The baseline slab (tau_g 703.3 Pa) on dx 0.05 m, two particles per cell: a brittle
+    layer fails under the uniform load below tau_p = tau_g / (1 - 0.025 / (2 Lambda)) =
+    716.9 Pa (measured: 716 failed everywhere at once, 718 held, 2026-11-28)."""
+    import damjax
+    from damjax import PSTParams, PSTSetup
+
+    setup = PSTSetup(length=20.0, dx=0.05, duration=0.3)
+    untriggered = dict(steady_length=10.0, strength_gradient=1000.0, saw_speed=1e-6)
+    with pytest.raises(ValueError, match=r"tau_peak \(--tau-peak\) = 712.0: must exceed 716.9 Pa"):
+        damjax.simulate_pst(PSTParams(tau_peak=712.0, **untriggered), setup)
+    held = damjax.simulate_pst(PSTParams(tau_peak=718.0, **untriggered), setup)
+    assert held.summary["crack_front"] == "sawn_only" and held.summary["final_tip_m"] == 0.0
+    # a softening layer fails at tau_p: the same strength is accepted
+    damjax.pst.prepare(PSTParams(tau_peak=712.0, softening=0.5, **untriggered), setup)
+
+
+def test_a_slope_says_and_counts_a_layer_that_fails_by_itself():
+    """On dx 0.2 m with two particles per cell, S = 1.06 fails under the slab's own
+    weight (below 1 / (1 - 0.1 / (2 Lambda)) = 1.082), S = 1.10 holds."""
+    import damjax
+    from damjax.slope import simulation
+
+    setup = damjax.SlopeSetup(length=10.0, width=6.0, dx=0.2, duration=0.05, start=(2.0, 3.0))
+    p = damjax.PSTParams()
+    tau_g = float(damjax.theory.gravity_shear(p))
+    for s, fails in ((1.06, True), (1.10, False)):
+        prep = simulation.prepare(p, setup, tau_peak=s * tau_g)
+        said = [n.text() for n in prep.notes if n.category == "overloaded"]
+        assert bool(said) == fails
+        if fails:
+            assert "starts failing under the slab's weight at once on 100 % of the area" in said[0]
+            assert np.all(simulation.load_ratio(p, setup, 35.0, s * tau_g) <= 1.0)
+            assert np.all(simulation.load_ratio(p, setup, 35.0, s * tau_g, uniform=False) > 1)

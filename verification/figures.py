@@ -481,10 +481,10 @@ start_window = [2.0, 4.0]
 def ensemble_quick() -> str:
     """``damjax ensemble`` on a small random-field slope (8 members): its ensemble.png."""
     with tempfile.TemporaryDirectory() as tmp:
-        (Path(tmp) / "slope-quick-grf.toml").write_text(ENSEMBLE_TOML)
+        (Path(tmp) / "ensemble_quick.toml").write_text(ENSEMBLE_TOML)
         _cli(
             "ensemble",
-            "slope-quick-grf.toml",
+            "ensemble_quick.toml",
             "--members",
             "8",
             "--out",
@@ -494,7 +494,7 @@ def ensemble_quick() -> str:
         )
         shutil.copy(Path(tmp) / "ens" / "ensemble.png", OUT / "ensemble_quick.png")
         (OUT / "ensemble_quick.toml").write_text(ENSEMBLE_TOML)
-    return "damjax ensemble slope-quick-grf.toml --members 8 (docs/images/ensemble_quick.toml)"
+    return "damjax ensemble ensemble_quick.toml --members 8 (docs/images/ensemble_quick.toml)"
 
 
 @figure

@@ -122,6 +122,20 @@ def front_width(u_break: Any, spacing: Any, elastic_length: Any) -> Any:
     return jnp.where(finite, u_break, 1.0) * (spacing / elastic_length)
 
 
+def uniform_failure_stress(
+    tau_peak: Any, stiffness: Any, u_break: Any, width: Any, xp: Any = jnp
+) -> Any:
+    """Shear stress [Pa] at which a uniformly loaded segment of weak layer starts to fail:
+    its peak tau_p, or K (u_r - w/2) where that is lower. `failed_fraction` lets a
+    segment fail from a centre slip of u_r - w/2 on, for the slip gradient of a crack
+    front across it; under a uniform load (the slab's own weight, no front) there is no
+    gradient, so a layer that softens less than w / (2 u_c) = (1 + delta) spacing /
+    (2 Lambda) fails there at a stress below tau_p: by spacing / (2 Lambda) at delta = 0
+    (2 % on dx 0.05 m with two particles per cell, 8.6 % on a slope's dx 0.2 m with one,
+    at the baseline Lambda 0.66 m; 2026-11-28). ``xp``: numpy for host checks."""
+    return xp.minimum(tau_peak, stiffness * (u_break - 0.5 * width))
+
+
 def failed_fraction(u: Any, u_break: Any, width: Any) -> Any:
     """Failed fraction in [0, 1] of a particle's segment of weak layer at centre
     (maximum) slip u [m]: the part of the segment whose slip, varying linearly by

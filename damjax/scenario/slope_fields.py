@@ -795,9 +795,11 @@ def natural_release_problem(
         f"y {yp[fails].min():.1f}-{yp[fails].max():.1f} m"
     )
     return (
-        f"strength: the weak layer fails under its own slab at t = 0 (tau_p <= rho g h sin "
-        f"psi) on {cells.size} snow-covered cells ({cells.size * dx * dx:.4g} m^2) outside "
-        f"the trigger, {box}, worst tau_p / tau_g = {worst_ratio[k]:.3g} at {worst}"
+        "strength: the weak layer fails under its own slab at t = 0 (rho g h sin psi "
+        "reaches the stress at which it starts to fail: tau_p, or less for a brittle layer "
+        "on coarse particles, damjax.materials.weak_layer.uniform_failure_stress) on "
+        f"{cells.size} snow-covered cells ({cells.size * dx * dx:.4g} m^2) outside the "
+        f"trigger, {box}, worst ratio {worst_ratio[k]:.3g} at {worst}"
     )
 
 

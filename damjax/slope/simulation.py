@@ -50,6 +50,7 @@ from damjax.materials.slab_fracture import (
     fracture_opening,
     fracture_strain,
 )
+from damjax.materials.weak_layer import uniform_failure_stress
 from damjax.params import PSTParams, SlopeSetup
 from damjax.validation import (
     InputError,
@@ -471,10 +472,17 @@ def overloaded_fraction(
 
 def initial_failures(model: Model) -> Any:
     """(n,) bool: particles whose weak layer fails under the slab's own weight at t = 0,
-    tau_p <= rho g h0 sin(psi) (the pre-load of `damjax.core.model.build_slope` reaches
-    the peak), in the model's own values (h0 and psi at each particle)."""
+    rho g h0 sin(psi) at or above the stress at which the uniformly loaded layer starts
+    to fail (`damjax.materials.weak_layer.uniform_failure_stress`: tau_p, or less for a
+    brittle layer on coarse particles), in the model's own values (h0 and psi at each
+    particle)."""
+    from damjax.core.step import front_width
+    from damjax.materials.weak_layer import uniform_failure_stress
+
+    wl = model.weak_layer
     g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
-    return model.weak_layer.tau_peak <= model.slab.density * model.slab.thickness * g_t
+    fails_at = uniform_failure_stress(wl.tau_peak, wl.stiffness, wl.u_res, front_width(model))
+    return fails_at <= model.slab.density * model.slab.thickness * g_t
 
 
 def source_reach(model: Model) -> float:
@@ -1053,13 +1061,29 @@ def prepare(
     ratio = load_ratio(params, setup, slope_deg, tau_peak, fall_deg, **snow)
     frac = float(np.mean(ratio <= 1.0)) if ratio.size else 0.0
     if frac > 0:
+        plain = load_ratio(params, setup, slope_deg, tau_peak, fall_deg, uniform=False, **snow)
+        if np.mean(plain <= 1.0) >= frac:
+            why = (
+                f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
+                f"{100 * frac:.3g} % of the area: the weak layer fails there under the "
+                "slab's weight at once (a strength map in kPa instead of Pa?)"
+            )
+        else:  # a brittle layer's segments on coarse particles: below tau_p
+            spacing = setup.dx / int(setup.particles_per_cell)
+            why = (
+                f"the weak layer starts failing under the slab's weight at once on "
+                f"{100 * frac:.3g} % of the area: its strength there exceeds rho g h "
+                f"sin(psi) by less than a layer that softens so little needs on particles "
+                f"{spacing:.3g} m apart (under a uniform load it fails from tau_p (1 + "
+                "delta) (1 - spacing / (2 Lambda)) on, "
+                "damjax.materials.weak_layer.uniform_failure_stress): a finer dx, more "
+                "particles_per_cell or some softening hold it"
+            )
         notes.append(
             Problem(
                 None,
                 frac,
-                f"tau_peak is at or below the gravitational shear rho g h sin(psi) on "
-                f"{100 * frac:.3g} % of the area: the weak layer fails there under the "
-                "slab's weight at once (a strength map in kPa instead of Pa?)",
+                why,
                 form="line",
                 setup=SlopeSetup,
                 category="overloaded",
@@ -1086,17 +1110,42 @@ def load_ratio(
     slope_deg: Any,
     tau_peak: Any,
     fall_deg: Any = 0.0,
+    uniform: bool = True,
     **snow: Any,
 ) -> np.ndarray:
     """(n,) tau_p / tau_g of each particle at t = 0: its weak layer's strength over the
     shear its own slab loads it with, rho g h0 sin(psi), in the model's own values (at
-    most 1: the layer fails under its slab before any cut). Particles in the order of
-    `damjax.core.model.slope_particles`; ``snow``: `build_slope`'s snow keywords."""
+    most 1: the layer fails under its slab before any cut). The strength is the stress
+    at which the uniformly loaded layer starts to fail
+    (`damjax.materials.weak_layer.uniform_failure_stress`: tau_p, or less for a layer
+    that softens less than its particles' spacing over 2 Lambda). Particles in the order
+    of `damjax.core.model.slope_particles`; ``snow``: `build_slope`'s snow keywords;
+    ``uniform`` False: tau_p itself."""
     pf = slope_particle_fields(params, setup, slope_deg, tau_peak, fall_deg, **snow)
     tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
     tau_g = np.broadcast_to(tau_g, tau_p.shape)
+    if uniform:
+        tau_p = _uniform_failure(params, setup, tau_p, pf["thickness"])
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(tau_g > 0, tau_p / np.where(tau_g > 0, tau_g, 1.0), np.inf)
+
+
+def _uniform_failure(params: PSTParams, setup: SlopeSetup, tau_p: Any, h: Any) -> np.ndarray:
+    """`uniform_failure_stress` of the particles' strengths tau_p [Pa] under slabs of h0
+    [m], with the front width of `damjax.core.state.Model.with_constants`, on the host."""
+
+    # the front width of `damjax.core.state.Model.with_constants`, on the host
+    def a(v: Any) -> np.ndarray:
+        return np.asarray(v, dtype=float)
+
+    k = a(params.wl_shear_modulus) / a(params.wl_thickness)
+    h = a(h)
+    lam = np.sqrt(a(params.youngs_modulus) * h / ((1.0 - a(params.poisson) ** 2) * k))
+    u_r = tau_p / k * (1.0 + a(params.softening))
+    spacing = setup.dx / int(setup.particles_per_cell)
+    with np.errstate(invalid="ignore"):  # tau_p = inf: an unbreakable layer
+        width = np.where(np.isfinite(u_r), u_r, 1.0) * (spacing / lam)
+    return uniform_failure_stress(tau_p, k, u_r, width, xp=np)
 
 
 def _check_size(
