@@ -107,7 +107,9 @@ class SlopeResult:
             explains every key. ``upslope_front`` and ``crossslope_front`` say what the
             fronts did ("arrested", "reached_edge", "moving", "sawn_only"); the arrest
             distances are None unless that front arrested. ``release_area_m2`` counts
-            every failed cell, the saw's cut included (``sawn_area_m2``); where
+            the failed weak layer, each broken particle's area, the saw's cut included
+            (``sawn_area_m2``; the maps mark a cell from its first failed particle, so
+            with several particles per cell their failed cells can add up to more); where
             ``saw_stopped`` is False the crack never ran ahead of the saw and the
             release is the cut (a warning says so). ``initial_failure_area_m2``: the
             weak layer failing under the slab's own weight at t = 0 (tau_p <= rho g h0
