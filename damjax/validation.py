@@ -45,6 +45,7 @@ from damjax.params import (
 )
 
 MAX_ELASTIC_SLIP = 0.1  # [m]
+MAX_CELLS = 1e15  # [-] cells along an extent: far beyond any memory (the sizes overflow)
 MIN_CELLS = 4  # a strip shorter than this has no interior (quadratic B-spline stencil)
 
 
@@ -429,7 +430,21 @@ def setup_problems(setup: PSTSetup) -> list[Problem]:
     problems = _fields(setup)
     if not problems and setup.length / setup.dx < MIN_CELLS:
         problems.append(_cells_problem("length", setup))
+    if not problems and not setup.length / setup.dx <= MAX_CELLS:
+        problems.append(_too_many_cells("length", setup))
     return problems
+
+
+def _too_many_cells(name: str, setup: Any) -> Problem:
+    """dx so small that the extent ``name`` holds more than `MAX_CELLS` cells: no machine
+    holds the run, and the sizes that follow overflow."""
+    return Problem(
+        "dx",
+        setup.dx,
+        f"must be at least ${{{name}}} / {MAX_CELLS:.0e} = "
+        f"{getattr(setup, name) / MAX_CELLS:.3g} m (more cells than any run can hold)",
+        setup=type(setup),
+    )
 
 
 def _cells_problem(name: str, setup: Any) -> Problem:
@@ -466,7 +481,11 @@ def slope_setup_problems(setup: SlopeSetup) -> list[Problem]:
         _cells_problem(name, setup)
         for name in ("length", "width")
         if getattr(setup, name) / setup.dx < MIN_CELLS
-    ]
+    ] + [
+        _too_many_cells(name, setup)
+        for name in ("length", "width")
+        if not getattr(setup, name) / setup.dx <= MAX_CELLS
+    ][:1]
 
 
 def slope_problems(

@@ -87,6 +87,19 @@ def test_a_run_too_large_for_memory_fails_at_once_naming_the_fields(capsys):
         )
 
 
+def test_a_vanishing_dx_is_one_line_not_an_overflow(capsys):
+    """dx = 1e-314 (a denormal) gave "cannot convert float infinity to integer" from the
+    grid's size; it asks for more cells than any run can hold."""
+    from damjax import SlopeSetup, simulate_slope
+
+    assert main(["pst", "--dx", "1e-314"]) == 2
+    assert "dx (--dx) = 1e-314: must be at least length (--length) / 1e+15" in (
+        capsys.readouterr().err
+    )
+    with pytest.raises(ValueError, match=r"dx = 1e-300: must be at least length / 1e\+15"):
+        simulate_slope(PSTParams(), SlopeSetup(length=10.0, width=5.0, dx=1e-300))
+
+
 @pytest.mark.parametrize(
     "kw, match",
     [
