@@ -323,31 +323,31 @@ def param_problems(
             else np.asarray(params.tau_peak, dtype=float)
         )
         fails_at = _uniform_failure_stress(params, setup, tau_min)
+        reason = None
         if np.any(tau_min <= np.asarray(tau_g)):
-            problems.append(
-                Problem(
-                    "strength_profile" if profiled else "tau_peak",
-                    float(np.min(tau_min)),
-                    f"must exceed the gravitational shear stress tau_g = "
-                    f"{float(np.max(tau_g)):.1f} Pa, otherwise the weak layer has already "
-                    "failed under the slab's weight",
-                    what="minimum" if profiled else "",
-                )
+            reason = (
+                f"must exceed the gravitational shear stress tau_g = "
+                f"{float(np.max(tau_g)):.1f} Pa, otherwise the weak layer has already "
+                "failed under the slab's weight"
             )
         elif setup.dx <= lam / 2 and np.any(fails_at <= np.asarray(tau_g)):
             # a brittle layer on coarse particles fails below tau_p under a uniform load
             need = float(np.max(np.asarray(tau_g) * tau_min / fails_at))
             spacing = setup.dx / int(setup.particles_per_cell)
+            reason = (
+                f"must exceed {need:.1f} Pa at a particle spacing of {spacing:.3g} m "
+                f"(tau_g = {float(np.max(tau_g)):.1f} Pa): a weak layer that softens so "
+                "little starts failing under the slab's uniform weight at tau_p (1 + "
+                "delta) (1 - spacing / (2 Lambda)), so it would fail everywhere at "
+                "once (damjax.materials.weak_layer.uniform_failure_stress); a finer "
+                "${dx}, more ${particles_per_cell} or some ${softening} hold it"
+            )
+        if reason is not None:
             problems.append(
                 Problem(
                     "strength_profile" if profiled else "tau_peak",
                     float(np.min(tau_min)),
-                    f"must exceed {need:.1f} Pa at a particle spacing of {spacing:.3g} m "
-                    f"(tau_g = {float(np.max(tau_g)):.1f} Pa): a weak layer that softens so "
-                    "little starts failing under the slab's uniform weight at tau_p (1 + "
-                    "delta) (1 - spacing / (2 Lambda)), so it would fail everywhere at "
-                    "once (damjax.materials.weak_layer.uniform_failure_stress); a finer "
-                    "${dx}, more ${particles_per_cell} or some ${softening} hold it",
+                    reason,
                     what="minimum" if profiled else "",
                 )
             )
