@@ -166,6 +166,13 @@ def as_number(v: Any) -> float | None:
         return None
 
 
+def same_value(a: Any, b: Any) -> bool:
+    """Whether two parameter values are equal (numbers, profiles or None)."""
+    if a is None or b is None:
+        return a is b
+    return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+
+
 def _leaf_values(value: Any) -> list[float] | None:
     """All scalar values of a (possibly batched) leaf, or None if not numeric (a string
     or a bool is not a number here, though numpy would convert it)."""
@@ -279,19 +286,23 @@ def lambda_problem(dx: float, lam: float, setup: type = PSTSetup) -> Problem | N
     return None
 
 
-def _uniform_failure_stress(params: PSTParams, setup: Any, tau_p: Any) -> np.ndarray:
-    """`damjax.materials.weak_layer.uniform_failure_stress` of strength tau_p [Pa] on the
-    PST's particles (the front width of `damjax.core.state.Model.with_constants`)."""
+def uniform_failure_stress_of(
+    params: PSTParams, spacing: float, tau_p: Any, thickness: Any = None
+) -> np.ndarray:
+    """`damjax.materials.weak_layer.uniform_failure_stress` on the host [Pa]: of strength
+    tau_p [Pa] under slabs of ``thickness`` h0 [m] (default ``params.thickness``) on
+    particles ``spacing`` [m] apart, with the front width of
+    `damjax.core.state.Model.with_constants`."""
     from damjax.materials.weak_layer import uniform_failure_stress
 
     def a(v: Any) -> np.ndarray:
         return np.asarray(v, dtype=float)
 
+    h = a(params.thickness if thickness is None else thickness)
     k = a(params.wl_shear_modulus) / a(params.wl_thickness)
+    lam = np.sqrt(a(params.youngs_modulus) * h / ((1.0 - a(params.poisson) ** 2) * k))
     u_r = a(tau_p) / k * (1.0 + a(params.softening))
-    lam = a(theory.elastic_length(params))
-    spacing = setup.dx / int(setup.particles_per_cell)
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore"):  # tau_p = inf: an unbreakable layer
         width = np.where(np.isfinite(u_r), u_r, 1.0) * (spacing / lam)
     return uniform_failure_stress(a(tau_p), k, u_r, width, xp=np)
 
@@ -322,7 +333,8 @@ def param_problems(
             if profiled
             else np.asarray(params.tau_peak, dtype=float)
         )
-        fails_at = _uniform_failure_stress(params, setup, tau_min)
+        spacing = setup.dx / int(setup.particles_per_cell)
+        fails_at = uniform_failure_stress_of(params, spacing, tau_min)
         reason = None
         if np.any(tau_min <= np.asarray(tau_g)):
             reason = (
@@ -333,7 +345,6 @@ def param_problems(
         elif setup.dx <= lam / 2 and np.any(fails_at <= np.asarray(tau_g)):
             # a brittle layer on coarse particles fails below tau_p under a uniform load
             need = float(np.max(np.asarray(tau_g) * tau_min / fails_at))
-            spacing = setup.dx / int(setup.particles_per_cell)
             reason = (
                 f"must exceed {need:.1f} Pa at a particle spacing of {spacing:.3g} m "
                 f"(tau_g = {float(np.max(tau_g)):.1f} Pa): a weak layer that softens so "

@@ -145,7 +145,7 @@ from damjax.scenario.slope_fields import (
 )
 from damjax.slope import simulation
 from damjax.slope.generic import window_problem
-from damjax.validation import InputError, Problem, implausible
+from damjax.validation import InputError, Problem, implausible, same_value
 
 TERRAIN_KINDS = ("plane", "generic", "dem")
 STRENGTH_KINDS = ("constant", "grf", "map", "stability", "coulomb")
@@ -514,7 +514,7 @@ def check(
     ignored = [
         k
         for k in PST_ONLY_PARAMS
-        if k in pgiven and not _same(pvals.get(k), getattr(PSTParams(), k))
+        if k in pgiven and not same_value(pvals.get(k), getattr(PSTParams(), k))
     ]
     if ignored:
         notes.append(
@@ -647,13 +647,6 @@ def _lines(
             line += ", or give strength.start_window"
         out.append(line)
     return out
-
-
-def _same(a: Any, b: Any) -> bool:
-    """Whether two parameter values are equal (numbers, profiles or None)."""
-    if a is None or b is None:
-        return a is b
-    return bool(np.array_equal(np.asarray(a), np.asarray(b)))
 
 
 def warn_resolution(scn: Any) -> None:

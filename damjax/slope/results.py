@@ -113,7 +113,7 @@ def _setup_fields() -> set[str]:
 
 
 def _leaf(v: Any) -> Any:
-    """A stored parameter: a number, or an array (a profile) as numpy."""
+    """A stored parameter: a number, None, or an array (a profile) as numpy."""
     return np.asarray(v, dtype=float) if isinstance(v, list) else v
 
 
@@ -167,9 +167,7 @@ def load_result(path: str | Path) -> Any:
         pv = json.loads(ds.attrs["params"])
         known = {f.name for f in dataclasses.fields(PSTParams)}
         setup = SlopeSetup(**{k: v for k, v in sv.items() if k in _setup_fields()})
-        params = PSTParams(
-            **{k: (None if v is None else _leaf(v)) for k, v in pv.items() if k in known}
-        )
+        params = PSTParams(**{k: _leaf(v) for k, v in pv.items() if k in known})
     else:
         raise ValueError(
             f"{path}: not a slope result (no arrival_time map, or neither a slope scenario "

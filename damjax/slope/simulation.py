@@ -63,11 +63,13 @@ from damjax.validation import (
     partial_cells,
     raise_if,
     require_x64,
+    same_value,
     shape_problems,
     size_problem,
     slope_field_problems,
     slope_problems,
     slope_setup_problems,
+    uniform_failure_stress_of,
 )
 
 SPEED_BAND = 1.0  # half-width of the bands along which crack speeds are measured [m]
@@ -479,7 +481,6 @@ def initial_failures(model: Model) -> Any:
     brittle layer on coarse particles), in the model's own values (h0 and psi at each
     particle)."""
     from damjax.core.step import front_width
-    from damjax.materials.weak_layer import uniform_failure_stress
 
     wl = model.weak_layer
     g_t = jnp.sqrt(model.g_tangent[0] ** 2 + model.g_tangent[1] ** 2)
@@ -847,11 +848,7 @@ def _pst_only_notes(params: PSTParams) -> list[Problem]:
     default = PSTParams()
     unused = []
     for name, spec in specs(PSTParams).items():
-        value, base = getattr(params, name), getattr(default, name)
-        if spec.pst_only and not (
-            value is base
-            or (value is not None and base is not None and np.array_equal(value, base))
-        ):
+        if spec.pst_only and not same_value(getattr(params, name), getattr(default, name)):
             unused.append(name)
     if not unused:
         return []
@@ -1127,27 +1124,10 @@ def load_ratio(
     tau_p, tau_g = np.asarray(pf["tau_peak"], float), np.asarray(pf["tau_g"], float)
     tau_g = np.broadcast_to(tau_g, tau_p.shape)
     if uniform:
-        tau_p = _uniform_failure(params, setup, tau_p, pf["thickness"])
+        spacing = setup.dx / int(setup.particles_per_cell)
+        tau_p = uniform_failure_stress_of(params, spacing, tau_p, pf["thickness"])
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(tau_g > 0, tau_p / np.where(tau_g > 0, tau_g, 1.0), np.inf)
-
-
-def _uniform_failure(params: PSTParams, setup: SlopeSetup, tau_p: Any, h: Any) -> np.ndarray:
-    """`uniform_failure_stress` of the particles' strengths tau_p [Pa] under slabs of h0
-    [m], with the front width of `damjax.core.state.Model.with_constants`, on the host."""
-
-    # the front width of `damjax.core.state.Model.with_constants`, on the host
-    def a(v: Any) -> np.ndarray:
-        return np.asarray(v, dtype=float)
-
-    k = a(params.wl_shear_modulus) / a(params.wl_thickness)
-    h = a(h)
-    lam = np.sqrt(a(params.youngs_modulus) * h / ((1.0 - a(params.poisson) ** 2) * k))
-    u_r = tau_p / k * (1.0 + a(params.softening))
-    spacing = setup.dx / int(setup.particles_per_cell)
-    with np.errstate(invalid="ignore"):  # tau_p = inf: an unbreakable layer
-        width = np.where(np.isfinite(u_r), u_r, 1.0) * (spacing / lam)
-    return uniform_failure_stress(tau_p, k, u_r, width, xp=np)
 
 
 def _check_size(
