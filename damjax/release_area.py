@@ -45,7 +45,8 @@ class ReleaseArea:
         thickness: slab thickness from the polygon's attribute [m] (None: no attribute).
         crs: the CRS (WKT or authority string; None when neither file names one).
         upslope: the DEM axis the release area's x points along ("+x", "-x", "+y", "-y").
-        origin: map coordinates of the rectangle's lower left corner [m].
+        origin: map coordinates of the rectangle's (0, 0) corner (down-slope, on the
+            right looking up-slope) [m].
         length: up-slope extent of the rectangle along the surface [m].
         width: cross-slope extent of the rectangle [m] (a map distance).
         margin: margin around the polygon [m] (the buffer, where one is given).
@@ -224,17 +225,23 @@ def read_release_area(
     xmin, ymin, xmax, ymax = geom.bounds
     if buffer is not None:
         margin = float(buffer)
+        # the raster's own bounds, half a cell beyond its nodes, as GIS tools show them
+        # (the cells there, without data on both sides, hold no snow)
+        hx = 0.5 * float(terrain.x[1] - terrain.x[0]) if terrain.x.size > 1 else 0.0
+        hy = 0.5 * float(terrain.y[1] - terrain.y[0]) if terrain.y.size > 1 else 0.0
+        bounds = (terrain.x[0] - hx, terrain.y[0] - hy, terrain.x[-1] + hx, terrain.y[-1] + hy)
+        tol = 1e-6 * max(hx, hy, 1.0)  # [m]: rounding, not a margin
         if not (
-            xmin >= terrain.x[0]
-            and xmax <= terrain.x[-1]
-            and ymin >= terrain.y[0]
-            and ymax <= terrain.y[-1]
+            xmin >= bounds[0] - tol
+            and xmax <= bounds[2] + tol
+            and ymin >= bounds[1] - tol
+            and ymax <= bounds[3] + tol
         ):
             raise ReleaseAreaError(
                 f"{key} = {path.name!r}: the polygon spans x [{xmin:.1f}, {xmax:.1f}], y "
                 f"[{ymin:.1f}, {ymax:.1f}] m and reaches outside the DEM's x "
-                f"[{terrain.x[0]:.1f}, {terrain.x[-1]:.1f}], y [{terrain.y[0]:.1f}, "
-                f"{terrain.y[-1]:.1f}] m: the whole polygon must lie on the DEM"
+                f"[{bounds[0]:.1f}, {bounds[2]:.1f}], y [{bounds[1]:.1f}, "
+                f"{bounds[3]:.1f}] m: the whole polygon must lie on the DEM"
             )
     inside = buffer is not None or (
         xmin - margin >= terrain.x[0]

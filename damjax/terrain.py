@@ -25,6 +25,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -599,6 +600,8 @@ def load_geotiff(path: str | os.PathLike, band: int = 1) -> Terrain:
             raise ValueError(f"{path}: rotated rasters are not supported; warp it north-up")
         if src.crs is not None and src.crs.is_geographic:
             raise ValueError(f"{path}: geographic CRS (degrees); reproject to a metric CRS")
+        if src.crs is not None:
+            check_metric_crs(path, src.crs.to_wkt())
         rows = src.read(band, masked=True).astype(float).filled(np.nan)
         ncols, nrows = src.width, src.height
     xs = tr.c + tr.a * (np.arange(ncols) + 0.5)
@@ -611,12 +614,43 @@ def load_geotiff(path: str | os.PathLike, band: int = 1) -> Terrain:
     return Terrain(xs, ys, z)
 
 
+def check_metric_crs(path: str | os.PathLike, crs: str | None) -> None:
+    """ValueError when a DEM's CRS (WKT, or None: nothing to check) is geographic or its
+    map units are not metres: damjax reads coordinates and heights as metres, so a DEM in
+    feet would give slopes right and every length, area and thickness 3.3 times off.
+    Without pyproj (the ``geo`` extra) nothing is checked."""
+    if not crs:
+        return
+    try:
+        import pyproj
+    except ImportError:
+        return
+    try:
+        c = pyproj.CRS.from_user_input(crs)
+    except pyproj.exceptions.CRSError:
+        return  # an unreadable .prj: the reader of release polygons says so
+    if c.is_geographic:
+        raise ValueError(
+            f"{os.fspath(path)}: geographic CRS {c.name!r} (degrees); reproject to a metric CRS"
+        )
+    units = {a.unit_name for a in c.axis_info[:2] if a.unit_conversion_factor != 1.0}
+    if units:
+        raise ValueError(
+            f"{os.fspath(path)}: CRS {c.name!r} is in {', '.join(sorted(units))}; damjax "
+            "reads map coordinates and heights in metres: reproject the DEM to a CRS in "
+            "metres and convert its heights to m"
+        )
+
+
 def load_dem(path: str | os.PathLike, **kwargs) -> Terrain:
     """Read a DEM, choosing the reader from the suffix (.asc, .nc/.nc4/.cdf, .tif/.tiff).
 
     Keyword arguments go to the reader (e.g. ``variable=`` for NetCDF, ``band=`` for TIFF).
     """
     suffix = os.path.splitext(os.fspath(path))[1].lower()
+    prj = Path(path).with_suffix(".prj")
+    if suffix in (".asc", ".grd", ".txt", ".nc", ".nc4", ".cdf", ".netcdf") and prj.is_file():
+        check_metric_crs(path, prj.read_text().strip())
     if suffix in (".asc", ".grd", ".txt"):
         return load_esri_ascii(path, **kwargs)
     if suffix in (".nc", ".nc4", ".cdf", ".netcdf"):

@@ -171,7 +171,8 @@ class Frame:
 
     Attributes:
         dx: cell size [m]; nx, ny: cells along x and y.
-        origin: map coordinates of the area's lower left corner [m].
+        origin: map coordinates of the area's (0, 0) corner (down-slope, on the right
+            looking up-slope) [m].
         u, v: unit map vectors of the area's x (up-slope) and y axes.
         a_grid, s_grid: map distance a and surface distance s along the centre line [m]
             (ascending; identity for a local frame).

@@ -56,7 +56,7 @@ the lower edge, y across). Format (SI units, angles in degrees)::
                                 #   GeoTIFF) in the release area's frame: x up-slope
                                 #   along the surface, y across (as measured on a
                                 #   slope; not rotated like a DEM); origin = [x, y] of
-                                #   the area's lower left corner in the map's
+                                #   the area's (0, 0) corner in the map's
                                 #   coordinates (default [0, 0]). The map must cover
                                 #   the area (to half a map spacing). NetCDF: a 2D
                                 #   variable on dimensions named x/y (or easting/
@@ -411,7 +411,11 @@ def _place_release(
             dem_file=dem_file,
             margin=float(terrain.get("margin", 10.0)),
             upslope=terrain.pop("upslope", None),  # re-added after origin (key order)
-            thickness_field="" if thickness_given and "thickness_field" not in terrain else field,
+            thickness_field=(
+                ""
+                if thickness_from_snow or (thickness_given and "thickness_field" not in terrain)
+                else field
+            ),
             buffer=None if buffer is None else float(buffer),
         )
     except release_area.ReleaseAreaError as exc:
@@ -432,8 +436,18 @@ def _place_release(
     terrain["upslope"] = area.upslope
     svals["length"] = area.length
     svals["width"] = area.width
+    if thickness_from_snow and "thickness_field" in terrain:
+        notes.append(
+            f"terrain.thickness_field = {_fmt(field)} is not used: the slab's thickness "
+            "comes from the [snow] table"
+        )
     if area.thickness is not None and not thickness_given:
         pvals["thickness"] = area.thickness
+        # the attribute is read as metres: a value in cm is said as a PST's would be
+        for p in implausible(PSTParams(thickness=area.thickness), {"thickness"}):
+            notes.append(
+                f"terrain.release: the polygon's {field} = {area.thickness:g} m: {p.reason}"
+            )
     elif area.thickness is not None and abs(pvals["thickness"] - area.thickness) > 1e-9:
         notes.append(
             f"params.thickness = {pvals['thickness']:g} m is used, not the polygon's "

@@ -69,6 +69,9 @@ def cell_centres(setup: Any) -> tuple[np.ndarray, np.ndarray]:
     return (np.arange(nx) + 0.5) * setup.dx, (np.arange(ny) + 0.5) * setup.dx
 
 
+# below this mean resultant length of the fall directions (1: one aspect; 0.64: a half
+# bowl) the release area spans a ridge or a whole bowl and has no up-slope axis
+RIDGE_RESULTANT = 0.3
 _AXES = {"+x": (1.0, 0.0), "-x": (-1.0, 0.0), "+y": (0.0, 1.0), "-y": (0.0, -1.0)}
 
 
@@ -121,7 +124,8 @@ def dem_fields(
     """Local slope angle and fall direction [deg] of a DEM at release-area points.
 
     The release area's x axis points along the DEM axis ``upslope``, its y axis 90 deg
-    counter-clockwise from it, its lower left corner at the map point ``origin`` [m].
+    counter-clockwise from it (to the left, looking up-slope), its (0, 0) (the down-slope
+    corner on the right, looking up-slope) at the map point ``origin`` [m].
     x is a distance along the surface (mapped to the map through the surface profile of
     the area's centre line), y a map distance.
 
@@ -365,23 +369,43 @@ def _resolve(scn: Any) -> SlopeInputs:
                     f"terrain.origin = {o}: no DEM data in the domain: the release area "
                     "is laid on the DEM along its centre line from terrain.origin, which "
                     f"must run over the DEM's data ({_fmt(ter['file'])} spans x "
-                    f"[{dem.x[0]:.6g}, {dem.x[-1]:.6g}], y [{dem.y[0]:.6g}, {dem.y[-1]:.6g}] "
+                    f"[{dem.x[0]:.10g}, {dem.x[-1]:.10g}], y [{dem.y[0]:.10g}, {dem.y[-1]:.10g}] "
                     "in its CRS)"
                 )
             slope = np.where(domain, slope, np.nan)
             fall = np.where(domain, fall, np.nan)
+            off = _off_dem(dem, map_x, map_y)
+            if area is None and off.any():
+                warnings.warn(
+                    f"terrain.origin, setup.length, setup.width: {100 * off.mean():.0f} % of "
+                    f"the window lies off the DEM ({_fmt(ter['file'])} spans x "
+                    f"[{dem.x[0]:.10g}, {dem.x[-1]:.10g}], y [{dem.y[0]:.10g}, {dem.y[-1]:.10g}]"
+                    " in its CRS): those cells hold no snow",
+                    stacklevel=2,
+                )
         # fall 0 deg: straight down -x; over 90 deg the "up-slope" axis goes downhill
         sel = np.isfinite(fall)
         f = np.radians(np.asarray(fall, dtype=float)[sel])
         mean_up = float(np.mean(np.cos(f) * np.sin(np.radians(np.asarray(slope)[sel]))))
-        if mean_up < 0:
-            up = ter.get("upslope", "+x")
-            raise _FieldProblem(
-                f'terrain.upslope = "{up}": the DEM descends along {up} over the release '
-                f"area (mean fall direction {np.degrees(np.angle(np.mean(np.exp(1j * f)))):.0f}"
-                " deg from down-slope); the release area's x axis must point up-slope"
-            )
         mean_fall = float(np.degrees(np.angle(np.mean(np.exp(1j * f)))))
+        up = ter.get("upslope", "+x")
+        # a ridge or a whole bowl: fall lines that cancel leave no up-slope direction
+        resultant = float(np.abs(np.mean(np.exp(1j * f)))) if f.size else 1.0
+        if resultant < RIDGE_RESULTANT:
+            raise _FieldProblem(
+                f"terrain: the release area's slopes face opposite ways (across a ridge "
+                f"or around a bowl: their fall directions' mean resultant length is "
+                f"{resultant:.2f}, 1 for one aspect), so no up-slope axis fits it; split "
+                "the release polygon (or the window) where the aspect turns"
+            )
+        if mean_up < 0 or abs(mean_fall) > 89.0:  # no up-slope along it (89: rounding)
+            how = "falls across" if abs(mean_fall) < 135.0 else "descends along"
+            raise _FieldProblem(
+                f'terrain.upslope = "{up}": the terrain {how} this axis over the release '
+                f"area (its mean fall line is {mean_fall:.0f} deg from the release area's "
+                "down-slope direction); give terrain.upslope as the DEM axis that points "
+                'up-slope ("+x", "-x", "+y" or "-y")'
+            )
         if abs(mean_fall) > 45.0:
             up = ter.get("upslope", "+x")
             warnings.warn(
@@ -408,10 +432,7 @@ def _resolve(scn: Any) -> SlopeInputs:
         )
     if cover is not None:
         if not cover.any():
-            raise _FieldProblem(
-                "snow: no cell of the domain holds a slab (snow.max_slope_deg, snow.mask, "
-                "snow.min_thickness, or the DEM's nodata)"
-            )
+            raise _FieldProblem(_no_slab_problem(scn, thickness, domain))
         terrain_slope = np.asarray(slope, float)
         slope = snow_cover.fill_from_nearest(slope, cover)
         fall = snow_cover.fill_from_nearest(fall, cover)
@@ -669,6 +690,35 @@ def _snow_polygons(scn: Any, map_x: Any, map_y: Any, domain: Any) -> np.ndarray:
     return inside
 
 
+def _no_slab_problem(scn: Any, thickness: Any, domain: Any) -> str:
+    """The line for a domain without a slab, naming the slab's thickness where it is
+    below snow.min_thickness everywhere."""
+    sn = {**_SNOW_DEFAULTS, **(scn.snow or {})}
+    h = np.full(cell_shape(scn.setup), float(scn.params.thickness))
+    if thickness is not None:
+        h = np.asarray(thickness, float)
+    cells = np.isfinite(h) if domain is None else np.isfinite(h) & np.asarray(domain, bool)
+    h_max = float(np.max(h[cells])) if np.any(cells) else None
+    if h_max is not None and h_max < float(sn["min_thickness"]):
+        where = "params.thickness" if thickness is None else f'snow.kind = "{sn.get("kind")}"'
+        if thickness is None and scn.terrain.get("release"):
+            where = "the release polygon's thickness attribute, or params.thickness"
+        return (
+            f"snow: no cell of the domain holds a slab: the slab is at most {h_max:.3g} m "
+            f"thick ({where}), below snow.min_thickness = {float(sn['min_thickness']):g} m"
+        )
+    return (
+        "snow: no cell of the domain holds a slab (snow.max_slope_deg, snow.mask, "
+        "snow.min_thickness, or the DEM's nodata)"
+    )
+
+
+def _off_dem(dem: Any, map_x: Any, map_y: Any) -> Any:
+    """The cells whose map point lies outside the DEM's nodes (not its nodata holes)."""
+    mx, my = np.asarray(map_x, float), np.asarray(map_y, float)
+    return (mx < dem.x[0]) | (mx > dem.x[-1]) | (my < dem.y[0]) | (my > dem.y[-1])
+
+
 def _check_crs(scn: Any, key: str, name: str, crs: str | None) -> None:
     """_FieldProblem when snow.<key>'s CRS (WKT; None: it names none) is not the DEM's."""
     try:
@@ -700,7 +750,8 @@ def _snow_raster(
 ) -> np.ndarray:
     """The [snow] raster ``snow.<key>`` (a depth map or a mask) at the cells' map points
     (`damjax.snow_cover.sample_raster`), once it is read, in the DEM's CRS and covering
-    every cell of the domain (nodata inside it: no snow; outside it: an error)."""
+    every cell of the domain (nodata inside a depth map: no snow; inside a mask: not
+    masked; outside the raster: an error)."""
     from damjax import terrain
 
     file = scn.snow[key]
@@ -731,7 +782,7 @@ def _snow_raster(
             f"{r.y[-1] + 0.5 * r.dy:.1f}] m; the domain's x [{np.min(map_x[cells]):.1f}, "
             f"{np.max(map_x[cells]):.1f}], y [{np.min(map_y[cells]):.1f}, "
             f"{np.max(map_y[cells]):.1f}] m): it must cover the whole domain (nodata inside "
-            "it: no snow there)"
+            f"it: {'not masked' if key == 'mask' else 'no snow there'})"
         )
     return snow_cover.sample_raster(r, map_x, map_y, nearest=nearest)
 
