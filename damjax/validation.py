@@ -949,6 +949,8 @@ def expect_types(where: str, **values: tuple[Any, Any]) -> None:
                 PSTParams: "damjax.PSTParams",
                 "Layout": "a Layout (damjax.make_layout)",
                 "SlopeLayout": "a SlopeLayout (damjax.core.model.make_slope_layout)",
+                "SlopeProblem": "a SlopeProblem (damjax.calibrate.slope.slope_problem)",
+                "ObservationGrid": "an ObservationGrid (damjax.calibrate.slope.observation_grid)",
             }
             names = " or ".join(
                 names_.get(c, names_.get(c.__name__, f"damjax.{c.__name__}")) for c in classes

@@ -150,6 +150,34 @@ def test_inversion_and_the_smooth_arrest_check_their_options():
         )(float("nan"))
 
 
+def test_a_fit_on_a_flat_misfit_stops_and_says_so():
+    """A crack that never leaves the saw cut (0.2 s on 8 m) arrests where the saw stopped
+    whatever steady_length is: the gradient is exactly zero and Adam would return the
+    start as a "fit"; the run stops at once with a warning and stop_reason."""
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2)
+    p0 = PSTParams(steady_length=3.0, strength_gradient=3000.0, softening=1.0)
+    with pytest.warns(UserWarning, match=r"invert: the loss's gradient is exactly zero at it"):
+        r = calibrate.invert([({}, 5.0)], p0, setup, ["steady_length"], steps=3)
+    assert r.stop_reason == "zero_gradient" and len(r.history) == 1
+    assert r.path == {"steady_length": [pytest.approx(3.0)]}
+
+
+def test_a_start_outside_the_valid_range_is_named_before_any_run():
+    """params0 and each observation's overrides are checked as given (30.0, not its
+    float32 round trip), once for params0 and per observation for an override."""
+    setup = PSTSetup(length=8.0, dx=0.1, duration=0.2)
+    p0 = PSTParams(steady_length=30.0, softening=1.0)
+    obs = [({"strength_gradient": 600.0}, 5.0), ({"strength_gradient": 900.0}, 4.0)]
+    with pytest.raises(ValueError, match=r"^params0: steady_length = 30.0: must be in \[0, le"):
+        calibrate.invert(obs, p0, setup, ["softening"])
+    p0 = PSTParams(steady_length=3.0, softening=1.0)
+    obs[1] = ({"strength_gradient": float("nan")}, 4.0)
+    with pytest.raises(ValueError, match=r"^observations\[1\]: strength_gradient = nan: must"):
+        calibrate.invert(obs, p0, setup, ["softening"])
+    with pytest.raises(TypeError, match="invert: layout must be a Layout"):
+        calibrate.invert(obs[:1], p0, setup, ["softening"], layout="abc")
+
+
 def test_a_fit_whose_iterate_leaves_the_valid_range_stops_with_the_best_one():
     """The jitted gradient sees tracers, so the concrete iterate is checked between steps:
     a step that takes tau_peak below the slab's own shear (a failed weak layer) stops the
@@ -159,6 +187,7 @@ def test_a_fit_whose_iterate_leaves_the_valid_range_stops_with_the_best_one():
     with pytest.warns(UserWarning, match=r"invert: stopped at iterate 1.*tau_peak"):
         r = calibrate.invert([({}, 11.9)], p0, setup, ["tau_peak"], steps=6, learning_rate=0.3)
     assert r.estimates["tau_peak"] == pytest.approx(800.0) and len(r.history) == 1
+    assert r.stop_reason == "invalid_iterate"
 
 
 def test_a_fit_whose_override_fixes_the_layout_takes_its_layout():
@@ -173,4 +202,5 @@ def test_a_fit_whose_override_fixes_the_layout_takes_its_layout():
         calibrate.invert([(stiff, 6.9)], p0, setup, ["tau_peak"], steps=1)
     layout = damjax.make_layout(dataclasses.replace(p0, **stiff), setup)
     r = calibrate.invert([(stiff, 6.9)], p0, setup, ["tau_peak"], steps=1, layout=layout)
-    assert len(r.history) == 2 and all(np.isfinite(r.history))
+    # (its crack ends where it ends whatever tau_peak: a zero gradient, said, after one run)
+    assert r.history and all(np.isfinite(r.history)) and r.stop_reason == "zero_gradient"

@@ -129,3 +129,31 @@ def test_a_slope_problem_warns_of_a_strength_below_the_slab_s_weight_and_names_a
         warnings.simplefilter("error")  # no all-NaN RuntimeWarning either
         with pytest.raises(ValueError, match=r"slope_deg field: is nan: must be a finite number"):
             sc.slope_problem(fig12_params(), setup, slope_deg=math.nan, tau_peak=1000.0)
+
+
+def test_calibrate_slope_checks_its_start_and_grid_and_stops_on_a_flat_loss(problem):
+    """Every start value is checked as simulate_slope checks it (softening -1: an error;
+    sigma_t 4, meant in kPa: a note), the observation grid must be the problem's, and a
+    loss whose gradient is exactly zero stops with a warning, not as converged."""
+    from damjax.validation import DubiousInputWarning
+
+    grid = sc.observation_grid(problem.setup, 1.0)
+    observed = np.zeros(grid.shape)
+    with pytest.raises(ValueError, match=r"initial softening = -1.0: must be in \[0, inf\)"):
+        sc.calibrate_slope(problem, observed, grid, steps=1, initial={"softening": -1.0})
+    other = sc.observation_grid(SlopeSetup(length=30.0, width=W, dx=DX), 1.0)
+    with pytest.raises(ValueError, match=r"grid has \(30, 3\) cells .* needs \(16, 3\)"):
+        sc.calibrate_slope(problem, np.zeros((30, 3)), other, steps=1)
+    with pytest.raises(ValueError, match="cell = 100.0: must be at most the release area's"):
+        sc.observation_grid(problem.setup, 100.0)
+    with pytest.raises(TypeError, match="problem must be a SlopeProblem"):
+        sc.calibrate_slope(None, observed, grid, steps=1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = sc.calibrate_slope(
+            problem, observed, grid, steps=3, initial={"tensile_strength": 4.0}
+        )
+    said = [(w.category, str(w.message)) for w in caught]
+    assert any(c is DubiousInputWarning and "4 kPa = 4000 Pa" in m for c, m in said), said
+    assert any("gradient is exactly zero at iterate 0" in m for _, m in said), said
+    assert fit.stop_reason == "zero_gradient" and len(fit.history) == 1

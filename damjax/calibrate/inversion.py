@@ -35,6 +35,10 @@ class Inversion:
         history: the misfit at every iterate, the start included: ``steps + 1`` values
             (``history[0]`` at ``params0``, ``history[k]`` after k Adam updates).
         best_step: the index in ``history`` of the estimates.
+        stop_reason: "steps" (every Adam update ran), "zero_gradient" (the misfit does
+            not change with the fitted fields at an iterate: no fit, warned) or
+            "invalid_iterate" (an iterate left the valid range, warned).
+        path: the fitted fields' values at every iterate of ``history``, by name.
         hessian: Gauss-Newton Hessian of the misfit in log-parameter space at the
             estimates.
         condition_number: of ``hessian`` (inf where singular: the fields are not
@@ -53,6 +57,8 @@ class Inversion:
     condition_number: float
     std_errors: dict[str, float]  # from the Hessian and the assumed noise
     best_step: int = 0
+    stop_reason: str = "steps"
+    path: dict[str, list[float]] = dataclasses.field(default_factory=dict)
 
 
 def _positive_scalar(value: Any) -> bool:
@@ -72,6 +78,25 @@ def _stopped_early(who: str, k: int, exc: Exception) -> None:
         "learning_rate, or observations the model can reach)",
         stacklevel=3,
     )
+
+
+def _zero_gradient(who: str, k: int, g: Any, values: dict[str, float]) -> bool:
+    """Warn and say True when the gradient is exactly zero at iterate ``k``: the loss
+    does not change with the fitted fields there (every run ends the same way: e.g. no
+    crack left the saw cut, or all stopped at the same place), so the iterations cannot
+    move towards the observations and the result is no fit."""
+    if not bool(np.all(np.asarray(g) == 0.0)):
+        return False
+    at = ", ".join(f"{f} = {v:.6g}" for f, v in values.items() if f != "loss")
+    warnings.warn(
+        f"{who}: the loss's gradient is exactly zero at iterate {k} ({at}): the runs end "
+        "the same way for nearby values (a crack that never leaves the saw cut, or that "
+        "stops at the same place in every run), so no step can improve the fit; stopped "
+        "(stop_reason 'zero_gradient'). Start from other values, or check that the model "
+        "can reach the observations",
+        stacklevel=3,
+    )
+    return True
 
 
 def optimizer_problems(steps: Any, learning_rate: Any, tol: Any = None) -> list[str]:
@@ -199,8 +224,30 @@ def invert(
                 f"{float(setup.length):g}] m, an arrest inside the PST (setup.length)"
             )
     problems += optimizer_problems(steps, learning_rate)
+    if not problems:  # the runs at the start, as given (not after a float32 round trip)
+        lines = [
+            [
+                e.text(lambda f: f)
+                for e in param_problems(
+                    dataclasses.replace(params0, **{k: float(v) for k, v in o.items()}), setup
+                )
+            ]
+            for o, _ in observations
+        ]
+        common = [ln for ln in lines[0] if all(ln in other for other in lines)]
+        problems += [f"params0: {ln}" for ln in common]  # once, not per observation
+        problems += [
+            f"observations[{i}]: {ln}"
+            for i, own in enumerate(lines)
+            for ln in own
+            if ln not in common
+        ]
     if problems:
         raise ValueError("\n".join(problems))
+    if layout is not None:
+        from damjax.core.model import Layout
+
+        expect_types("invert", layout=(layout, Layout))
     layout = pst.make_layout(params0, setup) if layout is None else layout
     x0 = jnp.asarray([math.log(float(getattr(params0, f))) for f in fields])
     over = [{k: float(v) for k, v in o.items()} for o, _ in observations]
@@ -235,6 +282,8 @@ def invert(
 
         it = tqdm(it, desc="invert")
     best_x, best, best_step = x, math.inf, 0
+    reason = "steps"
+    path: dict[str, list[float]] = {f: [] for f in fields}
 
     def check_iterate(x: Any) -> None:
         # the jitted gradient sees tracers: the concrete iterate is checked here, every
@@ -256,19 +305,29 @@ def invert(
             if not hist:
                 raise
             _stopped_early("invert", k, exc)
+            reason = "invalid_iterate"
             x = best_x
             break
         hist.append(float(val))
+        values = {f: float(jnp.exp(x[i])) for i, f in enumerate(fields)}
+        for f in fields:
+            path[f].append(values[f])
         if float(val) < best:  # Adam's iterates oscillate: keep the best one seen
             best_x, best, best_step = x, float(val), k
+        if _zero_gradient("invert", k, g, values):
+            reason = "zero_gradient"
+            break
         upd, st = opt.update(g, st)
         x = optax.apply_updates(x, upd)
     else:  # the iterate after the last update is one of them too
         try:
             check_iterate(x)
             hist.append(float(loss(x)))
+            for i, f in enumerate(fields):
+                path[f].append(float(jnp.exp(x[i])))
         except (ValueError, RuntimeError) as exc:
             _stopped_early("invert", len(hist), exc)
+            reason = "invalid_iterate"
         else:
             if hist[-1] < best:
                 best_x, best, best_step = x, hist[-1], len(hist) - 1
@@ -283,4 +342,4 @@ def invert(
         se = {f: est[f] * math.sqrt(max(cov[i, i], 0.0)) for i, f in enumerate(fields)}
     else:
         se = {f: math.inf for f in fields}
-    return Inversion(est, best, hist, H, cond, se, best_step)
+    return Inversion(est, best, hist, H, cond, se, best_step, reason, path)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -38,7 +39,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from damjax.calibrate.inversion import _positive_scalar, _stopped_early, optimizer_problems
+from damjax.calibrate.inversion import (
+    _positive_scalar,
+    _stopped_early,
+    _zero_gradient,
+    optimizer_problems,
+)
 from damjax.core.loop import cpu_compiler_options, integrate_pure
 from damjax.core.model import SlopeLayout, build_slope
 from damjax.core.state import Model, State
@@ -46,7 +52,13 @@ from damjax.materials import mcc, weak_layer
 from damjax.params import PSTParams, SlopeSetup
 from damjax.slope.simulation import SlopeResult, prepare, warn_notes
 from damjax.slope.simulation import particle_damage as slope_particle_damage
-from damjax.validation import as_number
+from damjax.validation import (
+    DubiousInputWarning,
+    as_number,
+    expect_types,
+    implausible,
+    param_problems,
+)
 
 CALIBRATED = ("tensile_strength", "softening")
 # relative width w of the damage ramp: wider than the 1D surrogate's 0.1, because after an
@@ -153,6 +165,12 @@ def observation_grid(setup: SlopeSetup, cell: float) -> ObservationGrid:
     """Observation cells of size `cell` [m] over the setup's release area."""
     if isinstance(cell, bool) or not _positive_scalar(cell):
         raise ValueError(f"observation_grid: cell = {cell!r}: must be a number in (0, inf) m")
+    if float(cell) > max(setup.length, setup.width):
+        raise ValueError(
+            f"observation_grid: cell = {cell!r}: must be at most the release area's longer "
+            f"side, {max(setup.length, setup.width):g} m ({setup.length:g} m x "
+            f"{setup.width:g} m): one cell larger than the area maps nothing"
+        )
     return ObservationGrid(
         float(cell),
         (int(math.ceil(setup.length / cell - 1e-9)), int(math.ceil(setup.width / cell - 1e-9))),
@@ -234,6 +252,10 @@ class SlopeCalibration:
         gradient: d loss / d log(parameter) at the estimates.
         wall_time_s: wall time of the whole calibration, compilation included [s].
         best_iteration: index in `history` of the estimates.
+        stop_reason: why the iterations ended: "steps" (all of them ran), "tol" (every
+            parameter's relative change fell below ``tol``), "zero_gradient" (the loss
+            does not change with the fitted fields there: not a fit, warned) or
+            "invalid_iterate" (an iterate left the valid range, warned).
     """
 
     estimates: dict[str, float]
@@ -242,6 +264,7 @@ class SlopeCalibration:
     gradient: dict[str, float]
     wall_time_s: float
     best_iteration: int = 0
+    stop_reason: str = "steps"
 
 
 def _release_loss_fn(
@@ -340,6 +363,7 @@ def calibrate_slope(
     """
     import time
 
+    expect_types("calibrate_slope", problem=(problem, SlopeProblem), grid=(grid, ObservationGrid))
     if isinstance(fields, str):  # one name, not its letters
         fields = (fields,)
     bad = [f for f in fields if f not in CALIBRATED]
@@ -367,6 +391,26 @@ def calibrate_slope(
             raise ValueError(
                 f"calibrate_slope: initial {f} = {start[f]!r}: must be a number in (0, inf)"
             )
+    # every start value, fitted or not, as simulate_slope checks them (a softening of -1;
+    # a sigma_t of 4, meant in kPa, is noted)
+    trial = dataclasses.replace(p, **start)
+    errors = param_problems(trial)
+    if errors:
+        raise ValueError(
+            "\n".join(f"calibrate_slope: initial {e.text(lambda f: f)}" for e in errors)
+        )
+    for note in implausible(trial, given=set(initial or {}) | set(fields)):
+        warnings.warn(
+            f"calibrate_slope: initial {note.text(lambda f: f)}", DubiousInputWarning, stacklevel=2
+        )
+    made = observation_grid(problem.setup, grid.cell)
+    if made.shape != tuple(grid.shape):
+        raise ValueError(
+            f"calibrate_slope: grid has {grid.shape} cells of {grid.cell:g} m, the problem's "
+            f"release area ({problem.setup.length:g} m x {problem.setup.width:g} m) "
+            f"needs {made.shape}: make it with "
+            "calibrate.slope.observation_grid(problem.setup, cell)"
+        )
     obs = np.asarray(observed, float)
     if obs.shape != tuple(grid.shape):
         raise ValueError(
@@ -402,6 +446,7 @@ def calibrate_slope(
     hist: list[dict[str, float]] = []
     t0 = time.perf_counter()
     best: tuple[float, Any, Any, int] = (math.inf, x, jnp.full_like(x, jnp.nan), 0)
+    reason = "steps"
     for k in range(steps):
         try:
             val, g = vg(x, fixed)
@@ -409,6 +454,7 @@ def calibrate_slope(
             if not hist:
                 raise
             _stopped_early("calibrate_slope", k, exc)
+            reason = "invalid_iterate"
             break
         row = {"loss": float(val), **{f: math.exp(float(x[i])) for i, f in enumerate(fields)}}
         hist.append(row)
@@ -416,11 +462,15 @@ def calibrate_slope(
             print(f"[calibrate_slope] {k}: {row}", flush=True)
         if float(val) < best[0]:
             best = (float(val), x, g, k)
+        if _zero_gradient("calibrate_slope", k, g, row):
+            reason = "zero_gradient"
+            break
         upd, st = opt.update(g, st)
         x_new = optax.apply_updates(x, upd)
         done = bool(jnp.all(jnp.abs(x_new - x) < tol))
         x = x_new
         if done:
+            reason = "tol"
             break
     loss_best, x_best, g_best, k_best = best
     est = dict(start)
@@ -432,4 +482,5 @@ def calibrate_slope(
         gradient={f: float(g_best[i]) for i, f in enumerate(fields)},
         best_iteration=k_best,
         wall_time_s=time.perf_counter() - t0,
+        stop_reason=reason,
     )
