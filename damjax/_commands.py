@@ -4,6 +4,7 @@ is one line per problem on stderr and an exit code, never a traceback."""
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import re
 import sys
@@ -49,7 +50,14 @@ def dispatch(func: Callable[[Any], int], ns: Any, interrupted: str = "damjax: in
         os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout
         return 0
     except OSError as exc:  # unreadable input, unwritable output folder, full disk
-        sys.stderr.write(f"damjax: error: {' '.join(str(exc).split())}\n")
+        text = str(exc)
+        if exc.strerror:  # without Python's "[Errno 28]"
+            text = exc.strerror + (f": {exc.filename}" if exc.filename else "")
+        if exc.errno == errno.ENOSPC:
+            text += (
+                " (free some space, or give another --out; a checkpoint already written is kept)"
+            )
+        sys.stderr.write(f"damjax: error: {' '.join(text.split())}\n")
         return 1
 
 

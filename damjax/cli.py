@@ -400,16 +400,24 @@ def _report(outcome: Any, as_json: bool) -> int:
 def _interrupted(out: Any, every: float | None = None) -> int:
     """Exit status 130 after Ctrl-C, with what the folder holds now: the checkpoint to
     resume from, or why there is none (and whether an earlier run's results are kept)."""
+    import shlex
+
     from damjax import runner
 
     if (out / runner.CHECKPOINT).is_file():
-        sys.stderr.write(f"damjax: interrupted; continue with: damjax resume {out}\n")
+        sys.stderr.write(
+            f"damjax: interrupted; continue with: damjax resume {shlex.quote(str(out))}\n"
+        )
         return 130
     if every is not None:
         why = "it stopped before its first chunk ended (a checkpoint holds whole chunks)"
     else:
         why = "--checkpoint-every SECONDS keeps one to resume from"
-    kept = f"; {out} keeps the earlier run's results" if (out / runner.RESULTS).is_file() else ""
+    kept = ""
+    if (out / runner.SUMMARY).is_file():  # written last: a whole run's files
+        kept = f"; {out} keeps the earlier run's results"
+    elif (out / runner.RESULTS).is_file():
+        kept = f"; {out} holds part of this run's outputs (it stopped writing them): run it again"
     sys.stderr.write(f"damjax: interrupted (no checkpoint written: {why}){kept}\n")
     return 130
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import io as _io
 import json
 import math
 import os
@@ -70,9 +71,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         with open(tmp, "rb+") as fh:  # the data reaches the disk before the rename
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.errno is not None:  # name the file it was for
+            raise OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
         raise
 
 
@@ -298,7 +301,14 @@ def write_dataset(path: str | os.PathLike[str], ds: Any, engine: str | None = No
     engine = engine or netcdf_engine()
     fmt = "NETCDF4" if engine == "h5netcdf" else "NETCDF3_64BIT"
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine=engine, format=fmt)
+        if engine != "h5netcdf":
+            ds.to_netcdf(tmp, engine=engine, format=fmt)
+            return
+        # in memory first: a full disk is then an OSError of the write below, not an
+        # HDF5 error while the library closes a file it could not write (a segfault)
+        buf = _io.BytesIO()
+        ds.to_netcdf(buf, engine=engine, format=fmt)
+        tmp.write_bytes(buf.getbuffer())
 
 
 def _engine(path: str | os.PathLike[str]) -> str:

@@ -355,12 +355,15 @@ def _set_aside(out: Path) -> None:
 
 def _settle_replaced(out: Path) -> None:
     """The files set aside (`_set_aside`): deleted where a run has written its own into
-    ``out`` (a checkpoint or its results), else moved back (the run stopped before that,
-    or was killed: the earlier run's files are what the folder holds)."""
+    ``out`` (a checkpoint, or all its outputs: the summary is written last), else moved
+    back over what the run wrote of its outputs (it stopped before that, or was killed
+    while writing them: the earlier run's files are what the folder holds)."""
     aside = out / REPLACED
     if not aside.is_dir():
         return
-    if not any((out / n).exists() for n in (CHECKPOINT, RESULTS)):
+    if not any((out / n).exists() for n in (CHECKPOINT, SUMMARY)):
+        for name in (*OUTPUTS, *SLOPE_OUTPUTS):  # a part of this run's: not mixed in
+            (out / name).unlink(missing_ok=True)
         for p in aside.iterdir():
             os.replace(p, out / p.name)
     shutil.rmtree(aside, ignore_errors=True)
@@ -456,9 +459,16 @@ def resume(
                 "--checkpoint-every (checkpoint_every)"
             )
         raise ValueError(f"{out}: no {CHECKPOINT} to resume from ({why})")
+    _make_out(out)  # an unwritable folder, in run's words
     with io.folder_lock(out, LOCK_FILE, "damjax run"):
         _settle_replaced(out)  # a killed run's earlier files, superseded by its checkpoint
-        ck = _read(io.read_npz, path, "checkpoint")
+        try:
+            ck = _read(io.read_npz, path, "checkpoint")
+        except ValueError as exc:
+            raise ValueError(
+                f"{exc}; delete it and run the scenario again (`damjax run SCENARIO --out "
+                f"{out}`) to start afresh"
+            ) from None
         if str(ck.get("format", "")) != CHECKPOINT_FORMAT:
             raise ValueError(f"{path}: not a {CHECKPOINT_FORMAT} file")
         _check_inputs(path, ck)

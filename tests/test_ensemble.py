@@ -600,3 +600,14 @@ def test_members_warnings_are_said_once_per_kind():
         "2 members (0, 1); member 0: " + edge.format(50),
         "1 member (3); member 3: the crack never ran ahead",
     ]
+
+
+def test_a_damaged_plan_is_one_line_saying_what_to_do(tiny, tmp_path, capsys):
+    """plan.json cut short (a full disk): the file and the remedy, not a bare JSON error."""
+    out = tmp_path / "ens"
+    out.mkdir()
+    (out / "plan.json").write_text('{"slice_')
+    assert ensemble.main([str(tiny), "--members", "2", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"damjax: error: {out / 'plan.json'}: unreadable")
+    assert "delete it and run again" in err[0]

@@ -459,3 +459,59 @@ def test_a_folder_in_use_by_a_run_is_refused_naming_the_holder(tmp_path, scn_fil
     finally:
         io.unlock_folder(out, runner.LOCK_FILE, held)
     assert [p.name for p in out.iterdir()] == [runner.CHECKPOINT]
+
+
+def test_an_interrupt_while_writing_the_outputs_keeps_the_earlier_run(
+    tmp_path, scn_file, monkeypatch, capsys
+):
+    """Ctrl-C after results.nc but before summary.json (written last): the earlier run's
+    files come back whole, not mixed with a part of this run's, and the CLI says which;
+    without an earlier run the line says the folder holds a part of this one."""
+    out = tmp_path / "run"
+    assert main(["run", str(scn_file), "--out", str(out), "--quiet"]) == 0
+    before = {n: (out / n).read_bytes() for n in runner.OUTPUTS if (out / n).exists()}
+    assert runner.SUMMARY in before
+
+    def interrupted(*_a, **_k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(io, "write_json", interrupted)
+    edited = scn_file.parent / "edited.toml"
+    edited.write_text(scn_file.read_text().replace("duration = 3.0", "duration = 2.0"))
+    capsys.readouterr()
+    assert main(["run", str(edited), "--out", str(out), "--quiet"]) == 130
+    assert "keeps the earlier run's results" in capsys.readouterr().err
+    assert {n: (out / n).read_bytes() for n in before} == before  # whole, and the same
+    assert not (out / runner.REPLACED).exists()
+    fresh = tmp_path / "fresh run"
+    assert main(["run", str(edited), "--out", str(fresh), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert "holds part of this run's outputs (it stopped writing them): run it again" in err
+
+
+def test_a_full_disk_is_one_line_naming_the_file(tmp_path, scn_file, monkeypatch, capsys):
+    """No space for results.nc: one line naming the file, exit 1, no temporary file or
+    lock left (the NetCDF is made in memory, so HDF5 never closes a half-written file)."""
+    import errno
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert main(["run", str(scn_file), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"damjax: error: cannot write {out / runner.RESULTS}: No space left")
+    assert "[Errno" not in err and len(err.splitlines()) == 1
+    assert sorted(p.name for p in out.iterdir()) == []
+
+
+def test_the_resume_hint_is_quoted_for_the_shell(tmp_path, capsys):
+    from damjax import cli
+
+    out = tmp_path / "out int"
+    out.mkdir()
+    (out / runner.CHECKPOINT).write_bytes(b"")
+    assert cli._interrupted(out) == 130
+    assert f"damjax resume '{out}'" in capsys.readouterr().err

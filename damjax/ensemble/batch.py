@@ -317,7 +317,13 @@ def _run_locked(
     plan_path = out / PLAN_FILE
     plan: Plan | None = None
     if plan_path.is_file():
-        plan = Plan(**json.loads(plan_path.read_text()))
+        try:
+            plan = Plan(**json.loads(plan_path.read_text()))
+        except (ValueError, TypeError) as exc:  # truncated by a full disk, or edited
+            raise ValueError(
+                f"{plan_path}: unreadable ({' '.join(str(exc).split())}); delete it and run "
+                "again (the finished members are kept: the plan is made again from them)"
+            ) from None
         _check_plan(plan, key, layout, out)
         plan.chosen = "stored"
     runner = _Runner(layout, devices)
