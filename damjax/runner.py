@@ -305,6 +305,13 @@ def _run_locked(
     progress: bool,
     on_chunk: Callable[[int], None] | None,
 ) -> RunOutcome:
+    from damjax.ensemble.products import ENSEMBLE_FILE, SLICE_DIR
+
+    if (out / ENSEMBLE_FILE).exists() or (out / SLICE_DIR).is_dir():
+        raise ValueError(
+            f"{out}: holds an ensemble's files ({ENSEMBLE_FILE}, {SLICE_DIR}/), not a single "
+            "run's; give another --out"
+        )
     if (out / CHECKPOINT).exists():
         other = _checkpointed_scenario(out / CHECKPOINT)
         which = (

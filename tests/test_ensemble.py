@@ -611,3 +611,19 @@ def test_a_damaged_plan_is_one_line_saying_what_to_do(tiny, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"damjax: error: {out / 'plan.json'}: unreadable")
     assert "delete it and run again" in err[0]
+
+
+def test_run_and_ensemble_files_never_share_a_folder(tiny, tmp_path, capsys):
+    from damjax import runner, scenario
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "results.nc").write_bytes(b"")
+    assert ensemble.main([str(tiny), "--members", "2", "--out", str(run_dir), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a single run's files (results.nc), not an ensemble's" in err
+    assert not (run_dir / "slices").exists()
+    ens_dir = tmp_path / "ens"
+    (ens_dir / "slices").mkdir(parents=True)
+    with pytest.raises(ValueError, match="holds an ensemble's files .* give another --out"):
+        runner.run(scenario.load("quick"), ens_dir)

@@ -267,6 +267,14 @@ def run(
     say = log or (lambda _msg: None)
     t_start = time.perf_counter()
     out = Path(out_dir)
+    held_by_run = [
+        n for n in ("results.nc", "summary.json", "checkpoint.npz") if (out / n).exists()
+    ]
+    if held_by_run:  # the names of damjax.runner's files: two kinds of output never mix
+        raise ValueError(
+            f"{out}: holds a single run's files ({', '.join(held_by_run)}), not an "
+            "ensemble's; give another --out"
+        )
     slices_dir = out / SLICE_DIR
     slices_dir.mkdir(parents=True, exist_ok=True)
     # one run per folder: process 0 holds the lock for its job, and every process of the
