@@ -694,9 +694,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("show", help="print the summary and re-plot a finished run in DIR")
-    p.add_argument("dir", metavar="DIR", help="output folder holding results.nc")
+    p.add_argument("dir", metavar="DIR", help="output folder holding results.nc, or a results file")
     p.add_argument(
-        "--plot", metavar="FILE", help="figure file (default DIR/pst.png or DIR/slope.png)"
+        "--plot",
+        metavar="FILE",
+        help="figure file (default DIR/pst.png or DIR/slope.png; for a file, the file's "
+        "name with .png)",
     )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_show)

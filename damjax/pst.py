@@ -480,10 +480,13 @@ def finish(
     info: Any,
 ) -> PSTResult:
     """Assemble a `PSTResult` from a finished (or faulted) run."""
-    x_ref = np.asarray(model.saw.saw_coord)
+    # the coordinates in float64 whatever the run's precision, from the layout: the
+    # particles sit at odd multiples of dx / (2 ppc), step k ends at k duration / n_steps;
+    # float32 and float64 runs of one setup then share them (their files line up)
+    half = setup.dx / (2 * int(setup.particles_per_cell))
+    x_ref = np.round(np.asarray(model.saw.saw_coord, np.float64) / half) * half
     tau_p = np.asarray(model.weak_layer.tau_peak)
-    dt = float(model.dt)
-    times = dt * np.arange(1, tips.size + 1)
+    times = (setup.duration / layout.n_steps) * np.arange(1, tips.size + 1)
     fault = None
     if int(final.fault) != 0:
         msgs = [m for bit, m in FAULT_MESSAGES.items() if int(final.fault) & bit]

@@ -735,11 +735,18 @@ def show(
 ) -> tuple[dict[str, Any], Path]:
     """Re-plot a finished run from its files; returns (summary, plot path).
 
-    The summary is ``summary.json`` when present, else the one stored in ``results.nc``.
+    ``out_dir``: the run's folder, or a results file (its figure goes beside it, named
+    after it, unless ``plot`` is given). The summary is ``summary.json`` when present,
+    else the one stored in ``results.nc``.
     """
     from damjax.plot import plot_pst, plot_slope
 
-    path = Path(out_dir) / RESULTS
+    given = Path(out_dir)
+    path = given if given.is_file() else given / RESULTS
+    if given.is_file():  # the folder's names (pst.png, summary.json) are not its own
+        out_dir = given.parent
+        if plot is None:
+            plot = given.with_suffix(".png")
     slope = None
     if path.is_file():
         from damjax.slope.results import load_result as load_slope_result
@@ -753,12 +760,12 @@ def show(
         target = Path(plot) if plot is not None else Path(out_dir) / SLOPE_PLOT
         io.save_figure(plot_slope(result), target)
     else:
-        _, result = load_result(out_dir)
+        _, result = load_result(path if given.is_file() else out_dir)
         target = Path(plot) if plot is not None else Path(out_dir) / PLOT
         io.save_figure(plot_pst(result), target)
     summary = result.summary
     sfile = Path(out_dir) / SUMMARY
-    if sfile.is_file():
+    if sfile.is_file() and not given.is_file():
         try:
             summary = json.loads(sfile.read_text(encoding="utf-8"))
         except ValueError:

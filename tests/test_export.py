@@ -355,3 +355,18 @@ def test_an_unknown_crs_is_one_line_without_gdal_s_own(run_dir, capfd):
         gis.frame_of(ds, crs="EPSG:4326")
     with pytest.raises(ValueError, match=r"crs = 'EPSG:31287': the DEM \(plane.asc\) states"):
         gis.frame_of(ds, crs="EPSG:31287")
+
+
+def test_release_zones_without_a_crs_warn_of_geojson(tmp_path):
+    """GeoJSON without a CRS is read as WGS 84 (RFC 7946): metres of a local frame became
+    degrees in GIS tools; the writer says so (the .gpkg / .shp state no CRS)."""
+    import warnings
+
+    import shapely
+
+    zones = gpd.GeoDataFrame({"name": ["z"]}, geometry=[shapely.box(0, 0, 12, 6)], crs=None)
+    with pytest.warns(UserWarning, match=r"z.geojson: has no CRS, which GeoJSON readers take"):
+        gis.write_release_zones(zones, tmp_path, stem="z", formats=("geojson",), local=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gis.write_release_zones(zones, tmp_path / "g", stem="z", formats=("gpkg",), local=True)

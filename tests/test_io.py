@@ -189,3 +189,67 @@ def test_a_python_result_writes_the_results_file_damjax_run_writes(tmp_path):
 
     with pytest.raises(TypeError, match="plot_pst takes the result of one run"):
         plot_pst(traced)
+
+
+def test_files_of_float32_and_float64_runs_share_their_coordinates(tmp_path):
+    """x and time come from the layout in float64, so the two precisions' files line up
+    (xr.concat without NaN padding); coordinates carry no _FillValue (CF), and the
+    NetCDF4 file's large variables are deflated."""
+    import h5py
+    import xarray as xr
+
+    import damjax
+
+    params = damjax.PSTParams(steady_length=3.0)
+    files = []
+    for dtype in ("float32", "float64"):
+        setup = damjax.PSTSetup(length=6.0, dx=0.05, duration=0.3, dtype=dtype)
+        r = damjax.simulate_pst(params, setup)
+        assert r.x.dtype == np.float64 and r.time[-1] == 0.3 and r.time.size > 1024
+        files.append(tmp_path / f"{dtype}.nc")
+        r.to_netcdf(files[-1])
+    a, b = (io.open_dataset(f) for f in files)
+    assert np.array_equal(a["x"], b["x"]) and np.array_equal(a["time"], b["time"])
+    both = xr.concat([a["crack_tip"], b["crack_tip"]], dim="run", join="exact")
+    assert not np.isnan(both.values).any()
+    with h5py.File(files[0]) as f:
+        assert "_FillValue" not in f["x"].attrs and "_FillValue" not in f["time"].attrs
+        assert f["crack_tip"].compression == "gzip" and f["crack_speed"].compression == "gzip"
+
+
+def test_show_takes_a_results_file(tmp_path, capsys):
+    """`damjax show FILE`: a PST file's figure goes beside it, named after it (it tried
+    FILE/pst.png); a slope file is drawn as a slope (it was given to plot_pst)."""
+    import damjax
+    from damjax.cli import main
+
+    r = damjax.simulate_pst(
+        damjax.PSTParams(steady_length=3.0), damjax.PSTSetup(length=6.0, dx=0.05, duration=0.05)
+    )
+    r.to_netcdf(tmp_path / "one.nc")
+    assert main(["show", str(tmp_path / "one.nc")]) == 0
+    assert (tmp_path / "one.png").is_file()
+    assert main(["run", "slope-quick", "--out", str(tmp_path / "s"), "--quiet",
+                 "--set", "setup.duration=0.05"]) in (0, 3)  # fmt: skip
+    capsys.readouterr()
+    assert (
+        main(["show", str(tmp_path / "s" / "results.nc"), "--plot", str(tmp_path / "s.png")]) == 0
+    )
+    assert (tmp_path / "s.png").is_file() and "start_slope_deg" in capsys.readouterr().out
+
+
+def test_a_slope_files_parameters_are_strict_json(tmp_path):
+    """An elastic slab's tensile_strength (inf) is stored as "inf" (strict JSON: no
+    Infinity token) and read back as inf."""
+    import damjax
+    from damjax.slope.results import load_result
+
+    setup = damjax.SlopeSetup(length=4.0, width=2.0, dx=0.25, duration=0.02, start=(1.0, 1.0))
+    params = damjax.PSTParams(tensile_strength=math.inf)
+    r = damjax.simulate_slope(params, setup, slope_deg=35.0, tau_peak=2000.0)
+    ds = r.to_dataset()
+    stored = json.loads(ds.attrs["params"], parse_constant=lambda c: pytest.fail(c))
+    assert stored["tensile_strength"] == "inf"
+    json.loads(ds.attrs["summary"], parse_constant=lambda c: pytest.fail(c))
+    r.to_netcdf(tmp_path / "s.nc")
+    assert math.isinf(load_result(tmp_path / "s.nc").params.tensile_strength)

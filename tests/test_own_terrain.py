@@ -4,6 +4,7 @@ a polygon's thickness field. Scenarios are only checked (no run): seconds in all
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -153,12 +154,19 @@ def test_a_polygon_across_a_ridge_has_no_up_slope_axis(tmp_path):
     assert scn.terrain["upslope"] == "-x"
 
 
-def test_an_up_slope_axis_across_the_fall_line_is_named(tmp_path):
-    """A DEM-alone window whose default up-slope axis (+x) runs across the slope: the line
-    says the terrain falls across it and names the key to give."""
+def test_an_up_slope_axis_across_the_fall_line_is_warned_not_refused_by_rounding(tmp_path):
+    """A DEM-alone window whose default up-slope axis (+x) runs across the slope: its
+    mean fall line is 90 deg off the axis, warned as such (a rounding below 90 deg gave
+    "the DEM descends along +x"); one that descends along it is refused as such."""
     doc = _doc(_plane(tmp_path), origin=[X0 + 20, Y0 + 40])
     doc["setup"].update(length=40.0, width=40.0, start=[10.0, 10.0])
-    with pytest.raises(ValueError, match=r'upslope = "\+x": the terrain falls across this axis'):
+    _, said = _parse(doc, tmp_path)
+    assert any(
+        re.match(r'terrain.upslope = "\+x": the mean fall line is -?90 deg', m) for m in said
+    )
+    doc["terrain"].update(upslope="-y", origin=[X0 + 60, Y0 + 100])
+    doc["setup"]["start"] = [10.0, 20.0]
+    with pytest.raises(ValueError, match=r'upslope = "-y": the terrain descends along this axis'):
         _parse(doc, tmp_path)
 
 

@@ -787,7 +787,9 @@ def test_dem_whose_upslope_axis_goes_downhill_is_an_error(tmp_path):
     _plane_dem(tmp_path / "plane.asc", -math.tan(math.radians(30.0)), 0.0)
     doc = raw("slope-quick")
     doc["terrain"] = {"kind": "dem", "file": "plane.asc", "origin": [1.0, 2.0], "upslope": "+x"}
-    with pytest.raises(ValueError, match=r'^terrain.upslope = "\+x": the DEM descends along \+x'):
+    with pytest.raises(
+        ValueError, match=r'^terrain.upslope = "\+x": the terrain descends along this'
+    ):
         quiet_parse(doc, base_dir=tmp_path)
 
 

@@ -614,6 +614,16 @@ def write_release_zones(
             "pass crs= (--crs EPSG:...) to state one",
             stacklevel=2,
         )
+    if zones.crs is None and "geojson" in formats:
+        # RFC 7946: a GeoJSON without a CRS is WGS 84, so GIS tools put these metres in
+        # degrees (the GeoPackage and the shapefile state no CRS instead)
+        warnings.warn(
+            f"{stem}.geojson: has no CRS, which GeoJSON readers take as WGS 84 (degrees); "
+            "its coordinates are metres"
+            + (" in the run's local frame" if local else " (pass crs= / --crs EPSG:...)")
+            + ": use the .gpkg or .shp",
+            stacklevel=2,
+        )
     files = {}
     for fmt in formats:
         if fmt not in FORMATS:

@@ -398,7 +398,7 @@ def _resolve(scn: Any) -> SlopeInputs:
                 f"{resultant:.2f}, 1 for one aspect), so no up-slope axis fits it; split "
                 "the release polygon (or the window) where the aspect turns"
             )
-        if mean_up < 0 or abs(mean_fall) > 89.0:  # no up-slope along it (89: rounding)
+        if mean_up < 0 and abs(mean_fall) > 91.0:  # across it (90 +- 1): warned below
             how = "falls across" if abs(mean_fall) < 135.0 else "descends along"
             raise _FieldProblem(
                 f'terrain.upslope = "{up}": the terrain {how} this axis over the release '

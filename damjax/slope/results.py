@@ -113,8 +113,19 @@ def _setup_fields() -> set[str]:
 
 
 def _leaf(v: Any) -> Any:
-    """A stored parameter: a number, None, or an array (a profile) as numpy."""
-    return np.asarray(v, dtype=float) if isinstance(v, list) else v
+    """A stored parameter: a number, None, or an array (a profile) as numpy ("inf",
+    "-inf" and "nan": strict JSON's non-finite numbers; files before 2026-11-28 wrote
+    Infinity, which json reads itself)."""
+    if isinstance(v, str) and v in ("inf", "-inf", "nan"):
+        return float(v)
+    if isinstance(v, list):
+        return np.asarray([_leaf(x) for x in v], dtype=float)
+    return v
+
+
+def _flags(meanings: str) -> dict[str, Any]:
+    """CF flag attributes of a 0/1 map: values of its type (int8), one meaning each."""
+    return {"flag_values": np.array([0, 1], np.int8), "flag_meanings": meanings}
 
 
 def result_dataset(result: Any, snapshots: bool = True) -> Any:
@@ -132,16 +143,21 @@ def result_dataset(result: Any, snapshots: bool = True) -> Any:
         "units": "1",
         "long_name": "weak layer failed faster than the slab's plane-stress wave speed "
         "over 1 m: no front, no crack speed",
-        "flag_values": "0 1",
+        **_flags("front simultaneous"),
     }
     h0 = initial_thickness(result)
-    for name, mask, what in (
-        ("crown", result.height < 0.98 * h0, "tensile fracture (crown): h < 0.98 h0"),
-        ("stauchwall", result.height > 1.02 * h0, "compression (stauchwall): h > 1.02 h0"),
-        ("released", np.isfinite(result.arrival_time), "weak layer failed"),
+    for name, mask, what, meanings in (
+        ("crown", result.height < 0.98 * h0, "tensile fracture (crown): h < 0.98 h0", "no crown"),
+        (
+            "stauchwall",
+            result.height > 1.02 * h0,
+            "compression (stauchwall): h > 1.02 h0",
+            "no stauchwall",
+        ),
+        ("released", np.isfinite(result.arrival_time), "weak layer failed", "intact failed"),
     ):
         ds[name] = (("x", "y"), mask.astype(np.int8))
-        ds[name].attrs = {"units": "1", "long_name": what, "flag_values": "0 1"}
+        ds[name].attrs = {"units": "1", "long_name": what, **_flags(meanings)}
     names = [n for n in ds.variables if "snapshot" in ds[n].dims]
     if not snapshots:
         ds = ds.drop_vars(names)

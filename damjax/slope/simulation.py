@@ -159,7 +159,9 @@ class SlopeResult:
         ds = xr.Dataset(
             {
                 "height": var(("x", "y"), self.height, "m", "slab column height"),
-                "arrival_time": var(("x", "y"), at, "s", "weak-layer failure time"),
+                "arrival_time": var(
+                    ("x", "y"), at, "s", "weak-layer failure time (NaN: intact at the end)"
+                ),
                 "tension": var(("x", "y"), self.tension, "Pa", "slab tension sigma_xx"),
                 "opening": var(("x", "y"), self.opening, "1", "tensile plastic strain"),
                 "tau_peak": var(("x", "y"), self.tau_peak, "Pa", "weak-layer shear strength"),
@@ -208,19 +210,23 @@ class SlopeResult:
             "title": "damjax slope-scale release",
             "damjax_version": __version__,
             "setup": json.dumps(dataclasses.asdict(self.setup)),
+            # strict JSON: inf (an elastic slab) as the string "inf", read back as float
             "params": json.dumps(
-                {
-                    f.name: (
-                        None
-                        if getattr(self.params, f.name) is None
-                        else np.asarray(getattr(self.params, f.name)).tolist()
-                    )
-                    for f in dataclasses.fields(self.params)
-                }
-                # a uniform slope or strength given as a map or argument is what ran
-                | _uniform_maps(self)
+                _strict(
+                    {
+                        f.name: (
+                            None
+                            if getattr(self.params, f.name) is None
+                            else np.asarray(getattr(self.params, f.name)).tolist()
+                        )
+                        for f in dataclasses.fields(self.params)
+                    }
+                    # a uniform slope or strength given as a map or argument is what ran
+                    | _uniform_maps(self)
+                ),
+                allow_nan=False,
             ),
-            "summary": json.dumps(
+            "summary": io.to_json(
                 {k: v for k, v in self.summary.items() if k not in io.TIMING_KEYS}
             ),
             "Conventions": "CF-1.10",
@@ -871,6 +877,17 @@ def warn_notes(prep: PreparedSlope, stacklevel: int = 2) -> None:
     for note in prep.notes:
         category = SlopeRunWarning if note.category == "slope" else UserWarning
         warnings.warn(note.text(), category, stacklevel=stacklevel + 1)
+
+
+def _strict(v: Any) -> Any:
+    """JSON-ready values with inf, -inf and nan as strings ("inf", ...): strict JSON."""
+    if isinstance(v, dict):
+        return {k: _strict(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_strict(x) for x in v]
+    if isinstance(v, float) and not math.isfinite(v):
+        return str(v)
+    return v
 
 
 @dataclasses.dataclass(frozen=True)
