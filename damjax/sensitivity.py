@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -31,8 +32,40 @@ from damjax import pst
 from damjax.core.model import make_layout
 from damjax.diagnostics import GradientCheck, compare_gradient
 from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
-from damjax.sweep import sweep
-from damjax.validation import as_number, check_width, warn_notes
+from damjax.sweep import _sweep
+from damjax.validation import as_number, check_width, param_problems, shown, warn_notes
+
+
+def _window_problems(
+    params: PSTParams,
+    setup: PSTSetup,
+    field: str,
+    window: np.ndarray,
+    rel_window: float,
+    dtype: Any,
+) -> list[str]:
+    """Lines for a window whose ends leave the valid values: each end checked as the run
+    gets it (in the setup's dtype), but shown as given, not as float32 rounds it; a
+    window is the user's argument, not a batch of theirs, so no member is named."""
+    lo, hi = float(window[0]), float(window[-1])
+    head = (
+        f"{field} window [{lo:.10g}, {hi:.10g}] (rel_window = {rel_window!r} around "
+        f"{field} = {getattr(params, field)!r})"
+    )
+    out = []
+    for end, which in ((lo, "lower"), (hi, "upper")):
+
+        def show(name: str, v: Any, end: float = end) -> str:
+            return f"{end:.10g}" if name == field else shown(v)
+
+        value = float(np.asarray(end, dtype))
+        for p in param_problems(dataclasses.replace(params, **{field: value}), setup):
+            if p.field == field and p.valid:
+                line = f"its {which} end leaves the valid range {p.valid}"
+            else:
+                line = f"at its {which} end, {p.text(show=show)}"
+            out.append(f"{head}: {line}; narrow the window (rel_window)")
+    return out
 
 
 def gradient_check(
@@ -106,13 +139,21 @@ def gradient_check(
     dtype = jnp.float64 if setup.dtype == "float64" else jnp.float32
     x0 = np.array([float(getattr(params, f)) for f in fields])
     windows = [np.linspace(x * (1 - rel_window), x * (1 + rel_window), n_runs) for x in x0]
+    lines = [
+        line
+        for j, f in enumerate(fields)
+        for line in _window_problems(params, setup, f, windows[j], rel_window, dtype)
+    ]
+    if lines:
+        raise ValueError("\n".join(lines))
     # member (j, i): field j at its i-th window value, every other field at params
     points = np.repeat(x0[None, :], len(fields) * n_runs, axis=0)
     for j, xs in enumerate(windows):
         points[j * n_runs : (j + 1) * n_runs, j] = xs
     pts = jnp.asarray(points, dtype)
     batch = dataclasses.replace(params, **{f: pts[:, j] for j, f in enumerate(fields)})
-    results = sweep(batch, setup, batch_size=batch_size)
+    # the window's members are not the user's batch: the centre's notes were warned
+    results = _sweep(batch, setup, batch_size=batch_size, member_notes=False)
     arrests = np.array(
         [
             np.nan if r.summary["arrest_position_m"] is None else r.summary["arrest_position_m"]

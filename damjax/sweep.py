@@ -24,6 +24,7 @@ all processes' devices.
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 from typing import Any
 
@@ -31,7 +32,7 @@ import jax
 import numpy as np
 
 from damjax import pst
-from damjax._tracing import under_staging
+from damjax._tracing import is_traced, under_staging
 from damjax.core.loop import (
     MEMORY_FRACTION,
     RunInfo,
@@ -41,12 +42,87 @@ from damjax.core.loop import (
     run_chunk,
     temp_bytes,
 )
-from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup
-from damjax.validation import expect_types, must_text, warn_notes
+from damjax.params import PROFILE_FIELDS, PSTParams, PSTSetup, specs
+from damjax.validation import (
+    InputError,
+    Problem,
+    _leaf_values,
+    _members,
+    dubious,
+    expect_types,
+    implausible,
+    must_text,
+    param_problems,
+    raise_if,
+    setup_problems,
+    warn_notes,
+)
+
+
+def _member_suffix(index: list[int]) -> str:
+    return f" (batch member{'s' if len(index) > 1 else ''} {_members(index)})"
+
+
+def _leaf_problems(name: str, value: Any) -> list[Problem]:
+    """A leaf's members that are not numbers, and members of different shapes (profiles
+    of different lengths): checked before `broadcast_batch` converts the leaf to floats,
+    which would take True as 1.0 and "500" as 500."""
+    dtype = getattr(value, "dtype", None)
+    if isinstance(value, jax.core.Tracer) or (dtype is not None and dtype.kind in "iuf"):
+        return []  # a numeric array (sweep refuses traced leaves itself)
+    profile = name in PROFILE_FIELDS
+    spec = specs(PSTParams)[name]
+    if isinstance(value, (list, tuple)):
+        # a list of numbers is one profile; a list of sequences, a batch of them
+        batched = not profile or any(_shape(v) != () for v in value)
+        items = list(value) if batched else [value]
+    elif dtype is not None and np.ndim(value) > (1 if profile else 0):
+        items = [x.item() if isinstance(x, np.generic) else x for x in np.asarray(value)]
+        batched = True
+    else:
+        batched, items = False, [value.item() if isinstance(value, np.generic) else value]
+    bad = [i for i, v in enumerate(items) if _leaf_values(v) is None]
+    if bad:
+        first, suffix = items[bad[0]], _member_suffix(bad) if batched else ""
+        if profile:
+            reason = f"must be an array of >= 2 values [{spec.unit}]{suffix}"
+            return [Problem(name, _shape(first), reason, form="shape")]
+        return [Problem(name, first, must_text(f"{spec.valid_text} (a number)") + suffix)]
+    by_shape: dict[Any, list[int]] = {}
+    for i, v in enumerate(items):
+        by_shape.setdefault(_shape(v), []).append(i)
+    if len(by_shape) < 2:
+        return []
+    if profile and all(len(s) == 1 for s in by_shape):
+        found = " and ".join(f"{s[0]} values{_member_suffix(i)}" for s, i in by_shape.items())
+        reason = (
+            f"${{{name}}}: profiles of different lengths in one batch, {found}: a batch of "
+            "profiles is one (B, m) array; sample them on one grid (e.g. np.interp)"
+        )
+    else:
+        found = " and ".join(f"shape {s}{_member_suffix(i)}" for s, i in by_shape.items())
+        reason = f"${{{name}}}: members of different shapes in one batch, {found}"
+    return [Problem(name, None, reason, form="line")]
+
+
+def _shape(value: Any) -> Any:
+    try:
+        return np.shape(value)
+    except ValueError:  # a ragged sequence
+        return "ragged"
 
 
 def batch_size_of(params: PSTParams) -> int:
-    """Length B of the batch axis (1 if every leaf is a scalar)."""
+    """Length B of the batch axis (1 if every leaf is a scalar); `InputError` where a
+    member is not a number or the members' shapes differ."""
+    raise_if(
+        [
+            p
+            for f in dataclasses.fields(params)
+            if getattr(params, f.name) is not None
+            for p in _leaf_problems(f.name, getattr(params, f.name))
+        ]
+    )
     sizes: dict[int, list[str]] = {}
     for f in dataclasses.fields(params):
         v = getattr(params, f.name)
@@ -98,6 +174,86 @@ def member(params_batch: PSTParams, i: int) -> PSTParams:
             else (np.asarray(v)[i] if f.name in PROFILE_FIELDS else float(np.asarray(v)[i]))
         )
     return PSTParams(**kw)
+
+
+def _given_members(params: PSTParams, n: int) -> list[PSTParams]:
+    """The members as given: a shared leaf as it is, a batched one indexed in its own
+    dtype, so that a member's lines show its values as written (float32 ones too)."""
+    batched = {}
+    for f in dataclasses.fields(params):
+        v = getattr(params, f.name)
+        if v is not None and np.ndim(v) > (1 if f.name in PROFILE_FIELDS else 0):
+            batched[f.name] = np.asarray(v)
+    return [dataclasses.replace(params, **{k: a[i] for k, a in batched.items()}) for i in range(n)]
+
+
+def _member_notes(said: list[Problem], per_member: list[list[Problem]]) -> list[Problem]:
+    """The members' own notes (a single run's warnings, which the batch's cannot give of
+    batched values), one line per kind not said already: the first member's, naming
+    every member that has it."""
+
+    def kind(p: Problem) -> tuple[str, str | None, str]:
+        return p.category, p.field, p.form
+
+    known = {kind(p) for p in said}
+    found: dict[tuple[str, str | None, str], tuple[Problem, list[int]]] = {}
+    for i, notes in enumerate(per_member):
+        for note in notes:
+            if kind(note) not in known:
+                found.setdefault(kind(note), (note, []))[1].append(i)
+    return [
+        dataclasses.replace(note, reason=note.reason + _member_suffix(index))
+        for note, index in found.values()
+    ]
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _named(problems: list[Problem], members: list[PSTParams], setup: PSTSetup) -> list[Problem]:
+    """The batch's problems naming the members that have them on their own, each as the
+    first such member's (its own values: the batch checks the extremes across members);
+    as they were where no member has one alone, or every member alike (a shared value)."""
+
+    def key(p: Problem) -> tuple[Any, ...]:
+        return p.field, p.form, p.what, _NUMBER.sub("#", p.reason)
+
+    check_setup = None if setup_problems(setup) else setup
+    own = [param_problems(m, check_setup) for m in members]
+    out = []
+    for p in problems:
+        hits = [(i, q) for i, qs in enumerate(own) for q in qs if key(q) == key(p)]
+        index = sorted({i for i, _ in hits})
+        alike = len(index) == len(members) and len({q.text() for _, q in hits}) == 1
+        if not hits or alike:
+            out.append(p)
+        else:
+            first = hits[0][1]
+            out.append(dataclasses.replace(first, reason=first.reason + _member_suffix(index)))
+    return out
+
+
+def _prepared(
+    params_batch: PSTParams, batch: PSTParams, n: int, setup: PSTSetup, member_notes: bool
+) -> pst.Prepared:
+    """`pst.prepare` of the broadcast batch with its notes warned, and with
+    ``member_notes`` each member's own; an invalid batch's problems name their members,
+    and its members' notes on implausible values are warned (a unit mix-up is the likely
+    cause), as a single run's (`pst._prepared_and_warned`)."""
+    try:
+        prep = pst.prepare(batch, setup, batch=True, caller="sweep")
+    except InputError as exc:
+        members = _given_members(params_batch, n)
+        notes = list(exc.notes)
+        if member_notes:
+            notes += _member_notes(notes, [implausible(m) for m in members])
+        warn_notes(notes, stacklevel=4)
+        raise InputError(_named(exc.problems, members, setup), notes) from None
+    notes = list(prep.notes)
+    if member_notes:
+        notes += _member_notes(notes, [dubious(m, setup) for m in _given_members(params_batch, n)])
+    warn_notes(notes, stacklevel=4)
+    return prep
 
 
 @dataclasses.dataclass
@@ -193,6 +349,28 @@ def sweep(
         memory_fraction: share of a device's free memory a slice may use, (0, 1] (only
             without ``batch_size``).
     """
+    return _sweep(
+        params_batch,
+        setup,
+        batch_size=batch_size,
+        shard=shard,
+        progress=progress,
+        memory_fraction=memory_fraction,
+    )
+
+
+def _sweep(
+    params_batch: PSTParams,
+    setup: PSTSetup | None = None,
+    *,
+    batch_size: int | None = None,
+    shard: bool = True,
+    progress: bool = False,
+    memory_fraction: float = MEMORY_FRACTION,
+    member_notes: bool = True,
+) -> list[pst.PSTResult]:
+    """`sweep`; ``member_notes``: warn each member's own notes (`_prepared`), off where
+    the caller made the batch itself (`damjax.gradient_check`'s window)."""
     global last_plan
     setup = PSTSetup() if setup is None else setup
     expect_types("sweep", params_batch=(params_batch, PSTParams), setup=(setup, PSTSetup))
@@ -215,10 +393,17 @@ def sweep(
             "damjax.simulate_pst(p, setup, layout=layout)), or call sweep outside the "
             "jitted function"
         )
+    if is_traced(params_batch):
+        raise TypeError(
+            "sweep: called with traced parameters (inside jax.grad or jax.vmap); it runs a "
+            "batch on the host in compiled chunks. Differentiate or batch "
+            "damjax.simulate_pst instead, jax.grad(lambda p: damjax.simulate_pst(p, "
+            "setup).arrest_position_smooth) or jax.vmap(lambda p: damjax.simulate_pst(p, "
+            "setup, layout=layout)), or call sweep outside the transform"
+        )
     n = batch_size_of(params_batch)
     batch = broadcast_batch(params_batch, n)
-    prep = pst.prepare(batch, setup, batch=True, caller="sweep")
-    warn_notes(prep.notes, stacklevel=2)
+    prep = _prepared(params_batch, batch, n, setup, member_notes)
     layout = prep.layout
 
     n_dev = len(jax.devices()) if shard else 1

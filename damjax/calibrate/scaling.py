@@ -135,8 +135,30 @@ def _arrested(results: Sequence[Any]) -> list[Any]:
     return [r for r in results if r.arrested]
 
 
+def _no_profiles(name: str, results: Sequence[Any]) -> None:
+    """A clear error for runs with a strength_profile: the scalings are laws of the
+    steady-state length L_ss and the strength gradient theta, which a profile replaces
+    (the fit would use their unused defaults)."""
+    index = [
+        i
+        for i, r in enumerate(results)
+        if getattr(getattr(r, "params", None), "strength_profile", None) is not None
+    ]
+    if index:
+        shown = ", ".join(str(i) for i in index[:5])
+        shown += f" and {len(index) - 5} more" if len(index) > 5 else ""
+        raise ValueError(
+            f"{name}: result{'s' if len(index) > 1 else ''} {shown} of {len(results)} ran "
+            "with a strength_profile, which has no steady-state length L_ss or strength "
+            "gradient theta to fit against; fit runs of steady_length and strength_gradient "
+            "(strength_profile = None)"
+        )
+
+
 def fit_elastic_scaling(results: Sequence[Any]) -> PowerLawFit:
-    """Fit A_ca / L_ss against tau_g / (theta Lambda sqrt(1 + delta)) over arrested runs."""
+    """Fit A_ca / L_ss against tau_g / (theta Lambda sqrt(1 + delta)) over arrested runs
+    (of steady_length and strength_gradient, not of a strength_profile)."""
+    _no_profiles("fit_elastic_scaling", results)
     rs = _arrested(results)
     x = [float(theory.elastic_number(r.params)) for r in rs]
     y = [
@@ -144,28 +166,46 @@ def fit_elastic_scaling(results: Sequence[Any]) -> PowerLawFit:
         for r in rs
     ]
     keep = [i for i, v in enumerate(y) if v > 0]
-    _enough("fit_elastic_scaling", len(results), len(rs), len(keep), "arrested")
+    dropped = [f"{len(results) - len(rs)} not arrested", _at_or_below(len(rs) - len(keep))]
+    _enough("fit_elastic_scaling", len(results), len(keep), dropped)
     return fit_power_law([x[i] for i in keep], [y[i] for i in keep])
 
 
-def _enough(name: str, given: int, eligible: int, kept: int, which: str) -> None:
+def _enough(name: str, given: int, kept: int, dropped: list[str]) -> None:
     """A clear error when fewer than 3 runs are left to fit, saying which were dropped."""
     if kept < 3:
         raise ValueError(
-            f"{name}: need at least 3 runs to fit, got {kept} of {given}: {given - eligible} "
-            f"not {which}, {eligible - kept} arrested at or below the steady-state length"
+            f"{name}: need at least 3 runs to fit, got {kept} of {given}: {', '.join(dropped)}"
         )
 
 
+def _at_or_below(n: int) -> str:
+    return f"{n} arrested at or below the steady-state length"
+
+
+def _elastic(r: Any) -> bool:
+    params = getattr(r, "params", None)
+    return params is not None and not math.isfinite(float(params.tensile_strength))
+
+
 def fit_plastic_scaling(results: Sequence[Any]) -> PowerLawFit:
-    """Fit A_ca / L_t against Pi_e sqrt(sigma_t / tau_g) over arrested runs."""
-    rs = [r for r in _arrested(results) if math.isfinite(float(r.params.tensile_strength))]
+    """Fit A_ca / L_t against Pi_e sqrt(sigma_t / tau_g) over arrested runs with a finite
+    tensile strength (of steady_length and strength_gradient, not of a strength_profile)."""
+    _no_profiles("fit_plastic_scaling", results)
+    plastic = [r for r in results if not _elastic(r)]
+    rs = _arrested(plastic)
     x = [float(theory.plastic_number(r.params)) for r in rs]
     y = [
         (r.arrest_position - float(r.params.steady_length)) / float(theory.tensile_length(r.params))
         for r in rs
     ]
     keep = [i for i, v in enumerate(y) if v > 0]
-    which = "arrested with a finite tensile strength"
-    _enough("fit_plastic_scaling", len(results), len(rs), len(keep), which)
+    n_elastic = len(results) - len(plastic)
+    dropped = [
+        f"{len(plastic) - len(rs)} not arrested with a finite tensile strength",
+        _at_or_below(len(rs) - len(keep)),
+    ]
+    if n_elastic:  # an elastic run has no tensile length L_t to scale by, arrested or not
+        dropped.insert(0, f"{n_elastic} elastic (tensile_strength = inf: no tensile length L_t)")
+    _enough("fit_plastic_scaling", len(results), len(keep), dropped)
     return fit_power_law([x[i] for i in keep], [y[i] for i in keep])
