@@ -25,7 +25,6 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -648,9 +647,10 @@ def load_dem(path: str | os.PathLike, **kwargs) -> Terrain:
     Keyword arguments go to the reader (e.g. ``variable=`` for NetCDF, ``band=`` for TIFF).
     """
     suffix = os.path.splitext(os.fspath(path))[1].lower()
-    prj = Path(path).with_suffix(".prj")
-    if suffix in (".asc", ".grd", ".txt", ".nc", ".nc4", ".cdf", ".netcdf") and prj.is_file():
-        check_metric_crs(path, prj.read_text().strip())
+    if suffix in (".asc", ".grd", ".txt", ".nc", ".nc4", ".cdf", ".netcdf"):
+        from damjax.release_area import dem_crs  # the .prj beside it (a GeoTIFF's: below)
+
+        check_metric_crs(path, dem_crs(path))
     if suffix in (".asc", ".grd", ".txt"):
         return load_esri_ascii(path, **kwargs)
     if suffix in (".nc", ".nc4", ".cdf", ".netcdf"):

@@ -267,10 +267,12 @@ def run(
     say = log or (lambda _msg: None)
     t_start = time.perf_counter()
     out = Path(out_dir)
+    from damjax import runner
+
     held_by_run = [
-        n for n in ("results.nc", "summary.json", "checkpoint.npz") if (out / n).exists()
+        n for n in (runner.RESULTS, runner.SUMMARY, runner.CHECKPOINT) if (out / n).exists()
     ]
-    if held_by_run:  # the names of damjax.runner's files: two kinds of output never mix
+    if held_by_run:  # two kinds of output never mix
         raise ValueError(
             f"{out}: holds a single run's files ({', '.join(held_by_run)}), not an "
             "ensemble's; give another --out"

@@ -701,7 +701,7 @@ def _no_slab_problem(scn: Any, thickness: Any, domain: Any) -> str:
     h_max = float(np.max(h[cells])) if np.any(cells) else None
     if h_max is not None and h_max < float(sn["min_thickness"]):
         where = "params.thickness" if thickness is None else f'snow.kind = "{sn.get("kind")}"'
-        if thickness is None and scn.terrain.get("release"):
+        if thickness is None and (scn.terrain or {}).get("release"):
             where = "the release polygon's thickness attribute, or params.thickness"
         return (
             f"snow: no cell of the domain holds a slab: the slab is at most {h_max:.3g} m "
