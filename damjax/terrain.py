@@ -647,10 +647,11 @@ def load_dem(path: str | os.PathLike, **kwargs) -> Terrain:
     Keyword arguments go to the reader (e.g. ``variable=`` for NetCDF, ``band=`` for TIFF).
     """
     suffix = os.path.splitext(os.fspath(path))[1].lower()
-    if suffix in (".asc", ".grd", ".txt", ".nc", ".nc4", ".cdf", ".netcdf"):
-        from damjax.release_area import dem_crs  # the .prj beside it (a GeoTIFF's: below)
-
-        check_metric_crs(path, dem_crs(path))
+    prj = os.path.splitext(os.fspath(path))[0] + ".prj"  # a GeoTIFF's own CRS: below
+    if suffix in (".asc", ".grd", ".txt", ".nc", ".nc4", ".cdf", ".netcdf") and os.path.isfile(prj):
+        # read here, not through damjax.release_area, which imports damjax.fields (a cycle)
+        with open(prj, encoding="utf-8") as fh:
+            check_metric_crs(path, fh.read().strip())
     if suffix in (".asc", ".grd", ".txt"):
         return load_esri_ascii(path, **kwargs)
     if suffix in (".nc", ".nc4", ".cdf", ".netcdf"):
